@@ -1,0 +1,1 @@
+//! MakeHuman-based adult body generator, template landmarks and body parts.

@@ -1,0 +1,1 @@
+//! Measurement operators (euclidean, geodesic, circumference, geodesic loop) with exact supports, and measurement sets.

@@ -1,0 +1,263 @@
+//! Triangle meshes for the tapeshape engine.
+//!
+//! Frame and units everywhere in the engine: **metres, f64, Z up, feet at
+//! z = 0, +Y towards the body's front**, +X towards the body's right side (see
+//! the MakeHuman pack's README, section 2.4). Vertex order is the template's
+//! order and is never changed by any function in this crate.
+//!
+//! The [`Topology`] (edges, one-rings, face adjacency) depends only on the
+//! faces, so it is computed once per template and shared (through an
+//! [`std::sync::Arc`]) by every body with that topology.
+
+use std::sync::Arc;
+
+/// A 3D point or vector in metres, station frame (Z up, +Y front).
+pub type Vec3 = [f64; 3];
+
+/// Errors from building or reading meshes.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    /// A face refers to a vertex index that does not exist.
+    #[error("face {face} uses vertex {vertex}, but the mesh has only {n_vertices} vertices")]
+    VertexOutOfRange {
+        /// Face index.
+        face: usize,
+        /// Offending vertex index.
+        vertex: u32,
+        /// Number of vertices.
+        n_vertices: usize,
+    },
+    /// A face uses the same vertex twice.
+    #[error("face {face} is degenerate: it uses vertex {vertex} more than once")]
+    DegenerateFace {
+        /// Face index.
+        face: usize,
+        /// Repeated vertex.
+        vertex: u32,
+    },
+    /// Vertex count does not match the topology.
+    #[error("{got} vertices given, but the topology has {expected}")]
+    VertexCountMismatch {
+        /// Vertices given.
+        got: usize,
+        /// Vertices the topology expects.
+        expected: usize,
+    },
+}
+
+/// Connectivity of a triangle mesh, independent of vertex positions.
+///
+/// All index lists are sorted so results are deterministic.
+#[derive(Debug, Clone)]
+pub struct Topology {
+    n_vertices: usize,
+    faces: Vec<[u32; 3]>,
+    /// Unique undirected edges `[a, b]` with `a < b`, sorted.
+    edges: Vec<[u32; 2]>,
+    /// CSR offsets into `ring_vertices` (length `n_vertices + 1`).
+    ring_offsets: Vec<u32>,
+    /// One-ring neighbours of each vertex, sorted ascending.
+    ring_vertices: Vec<u32>,
+    /// For each edge: the (one or two) faces that use it; `u32::MAX` if none.
+    edge_faces: Vec<[u32; 2]>,
+}
+
+impl Topology {
+    /// Builds the topology of `n_vertices` vertices and triangles `faces`
+    /// (counter-clockwise seen from outside).
+    ///
+    /// Errors if a face refers to a missing vertex or repeats a vertex.
+    pub fn new(n_vertices: usize, faces: Vec<[u32; 3]>) -> Result<Self, MeshError> {
+        for (fi, f) in faces.iter().enumerate() {
+            for &v in f {
+                if v as usize >= n_vertices {
+                    return Err(MeshError::VertexOutOfRange {
+                        face: fi,
+                        vertex: v,
+                        n_vertices,
+                    });
+                }
+            }
+            if f[0] == f[1] || f[0] == f[2] {
+                return Err(MeshError::DegenerateFace { face: fi, vertex: f[0] });
+            }
+            if f[1] == f[2] {
+                return Err(MeshError::DegenerateFace { face: fi, vertex: f[1] });
+            }
+        }
+        let mut directed: Vec<(u32, u32, u32)> = Vec::with_capacity(faces.len() * 3);
+        for (fi, f) in faces.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                directed.push((a.min(b), a.max(b), fi as u32));
+            }
+        }
+        directed.sort_unstable();
+        let mut edges: Vec<[u32; 2]> = Vec::new();
+        let mut edge_faces: Vec<[u32; 2]> = Vec::new();
+        for &(a, b, fi) in &directed {
+            if edges.last() == Some(&[a, b]) {
+                let ef = edge_faces.last_mut().expect("edge_faces parallels edges");
+                if ef[1] == u32::MAX {
+                    ef[1] = fi;
+                }
+            } else {
+                edges.push([a, b]);
+                edge_faces.push([fi, u32::MAX]);
+            }
+        }
+        let mut degree = vec![0u32; n_vertices];
+        for e in &edges {
+            degree[e[0] as usize] += 1;
+            degree[e[1] as usize] += 1;
+        }
+        let mut ring_offsets = vec![0u32; n_vertices + 1];
+        for v in 0..n_vertices {
+            ring_offsets[v + 1] = ring_offsets[v] + degree[v];
+        }
+        let mut fill = ring_offsets.clone();
+        let mut ring_vertices = vec![0u32; ring_offsets[n_vertices] as usize];
+        for e in &edges {
+            let (a, b) = (e[0] as usize, e[1] as usize);
+            ring_vertices[fill[a] as usize] = e[1];
+            fill[a] += 1;
+            ring_vertices[fill[b] as usize] = e[0];
+            fill[b] += 1;
+        }
+        for v in 0..n_vertices {
+            ring_vertices[ring_offsets[v] as usize..ring_offsets[v + 1] as usize].sort_unstable();
+        }
+        Ok(Self {
+            n_vertices,
+            faces,
+            edges,
+            ring_offsets,
+            ring_vertices,
+            edge_faces,
+        })
+    }
+
+    /// Number of vertices.
+    pub fn n_vertices(&self) -> usize {
+        self.n_vertices
+    }
+
+    /// Triangles, counter-clockwise seen from outside; indices into the vertices.
+    pub fn faces(&self) -> &[[u32; 3]] {
+        &self.faces
+    }
+
+    /// Unique undirected edges `[a, b]` with `a < b`, sorted.
+    pub fn edges(&self) -> &[[u32; 2]] {
+        &self.edges
+    }
+
+    /// Index of edge `{a, b}` in [`Topology::edges`], if the edge exists.
+    pub fn edge_index(&self, a: u32, b: u32) -> Option<usize> {
+        let key = [a.min(b), a.max(b)];
+        self.edges.binary_search(&key).ok()
+    }
+
+    /// The faces using edge `e` (one for a boundary edge, two for an interior one).
+    pub fn edge_faces(&self, e: usize) -> impl Iterator<Item = u32> + '_ {
+        self.edge_faces[e].into_iter().filter(|&f| f != u32::MAX)
+    }
+
+    /// One-ring neighbours of vertex `v`, sorted ascending.
+    pub fn ring(&self, v: u32) -> &[u32] {
+        let v = v as usize;
+        &self.ring_vertices[self.ring_offsets[v] as usize..self.ring_offsets[v + 1] as usize]
+    }
+
+    /// Faces sharing an edge with face `f` (at most three).
+    pub fn face_neighbours(&self, f: u32) -> impl Iterator<Item = u32> + '_ {
+        let face = self.faces[f as usize];
+        (0..3).filter_map(move |k| {
+            let e = self.edge_index(face[k], face[(k + 1) % 3])?;
+            self.edge_faces(e).find(|&g| g != f)
+        })
+    }
+}
+
+/// A triangle mesh: vertex positions (metres, station frame) over a shared [`Topology`].
+#[derive(Debug, Clone)]
+pub struct Mesh {
+    /// Vertex positions, metres, station frame; length = `topology.n_vertices()`.
+    pub vertices: Vec<Vec3>,
+    /// Shared connectivity.
+    pub topology: Arc<Topology>,
+}
+
+impl Mesh {
+    /// A mesh from positions and a shared topology; errors if the counts differ.
+    pub fn new(vertices: Vec<Vec3>, topology: Arc<Topology>) -> Result<Self, MeshError> {
+        if vertices.len() != topology.n_vertices() {
+            return Err(MeshError::VertexCountMismatch {
+                got: vertices.len(),
+                expected: topology.n_vertices(),
+            });
+        }
+        Ok(Self { vertices, topology })
+    }
+
+    /// Builds the topology from `faces` and wraps it with `vertices`.
+    pub fn from_faces(vertices: Vec<Vec3>, faces: Vec<[u32; 3]>) -> Result<Self, MeshError> {
+        let topology = Arc::new(Topology::new(vertices.len(), faces)?);
+        Self::new(vertices, topology)
+    }
+
+    /// Triangles of the mesh.
+    pub fn faces(&self) -> &[[u32; 3]] {
+        self.topology.faces()
+    }
+
+    /// Vertex positions as one flat slice `[x0, y0, z0, x1, ...]` of length 3V (metres).
+    pub fn flat(&self) -> &[f64] {
+        self.vertices.as_flattened()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tetra() -> Mesh {
+        Mesh::from_faces(
+            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn tetrahedron_topology() {
+        let m = tetra();
+        let t = &m.topology;
+        assert_eq!(t.edges().len(), 6);
+        for v in 0..4 {
+            assert_eq!(t.ring(v).len(), 3);
+        }
+        for e in 0..6 {
+            assert_eq!(t.edge_faces(e).count(), 2);
+        }
+        for f in 0..4 {
+            assert_eq!(t.face_neighbours(f).count(), 3);
+        }
+        assert_eq!(t.edge_index(3, 1), t.edge_index(1, 3));
+        assert!(t.edge_index(1, 3).is_some());
+        assert_eq!(m.flat().len(), 12);
+    }
+
+    #[test]
+    fn bad_faces_are_errors() {
+        let v = vec![[0.0; 3]; 3];
+        assert!(matches!(
+            Mesh::from_faces(v.clone(), vec![[0, 1, 5]]),
+            Err(MeshError::VertexOutOfRange { vertex: 5, .. })
+        ));
+        assert!(matches!(
+            Mesh::from_faces(v, vec![[0, 1, 1]]),
+            Err(MeshError::DegenerateFace { .. })
+        ));
+    }
+}

@@ -1,0 +1,1 @@
+//! The Wuhrer & Shu shape model: PCA, feature analysis, L-BFGS refinement.

@@ -1,0 +1,1 @@
+//! The tapeshape station program: tape link, session store, terminal interface and CLI.
