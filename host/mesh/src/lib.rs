@@ -79,10 +79,16 @@ impl Topology {
                 }
             }
             if f[0] == f[1] || f[0] == f[2] {
-                return Err(MeshError::DegenerateFace { face: fi, vertex: f[0] });
+                return Err(MeshError::DegenerateFace {
+                    face: fi,
+                    vertex: f[0],
+                });
             }
             if f[1] == f[2] {
-                return Err(MeshError::DegenerateFace { face: fi, vertex: f[1] });
+                return Err(MeshError::DegenerateFace {
+                    face: fi,
+                    vertex: f[1],
+                });
             }
         }
         let mut directed: Vec<(u32, u32, u32)> = Vec::with_capacity(faces.len() * 3);
@@ -179,6 +185,18 @@ impl Topology {
     }
 }
 
+/// Named places on a template topology: landmarks (vertex indices) and body
+/// parts (sets of triangle indices). Names are snake_case with a `_left` /
+/// `_right` suffix for the body's own left and right (in the station frame the
+/// body's right side is +X).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Anatomy {
+    /// Landmark name -> vertex index.
+    pub landmarks: std::collections::BTreeMap<String, u32>,
+    /// Body part name -> sorted triangle indices.
+    pub parts: std::collections::BTreeMap<String, Vec<u32>>,
+}
+
 /// A triangle mesh: vertex positions (metres, station frame) over a shared [`Topology`].
 #[derive(Debug, Clone)]
 pub struct Mesh {
@@ -223,7 +241,12 @@ mod tests {
 
     fn tetra() -> Mesh {
         Mesh::from_faces(
-            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ],
             vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
         )
         .unwrap()
