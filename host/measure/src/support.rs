@@ -34,12 +34,20 @@ impl SupportPoint {
 }
 
 /// The points a measurement used and the segments between them.
+///
+/// Without an axis, a segment's length is the Euclidean distance of its end
+/// points. With `axis = Some(n)` (a unit vector, station frame), every segment's
+/// length is `|n . (q1 - q0)|`: heights from the floor (n = +Z) and caliper
+/// breadths/depths are projected lengths. An optimiser differentiates
+/// `(n . d)^2` instead of `d . d` for such supports.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Support {
     /// Points on the mesh.
     pub points: Vec<SupportPoint>,
     /// Segments as pairs of indices into `points`; the value is the sum of their lengths.
     pub segments: Vec<[u32; 2]>,
+    /// Optional unit projection axis (see the type docs).
+    pub axis: Option<Vec3>,
 }
 
 impl Support {
@@ -50,7 +58,11 @@ impl Support {
             .map(|s| {
                 let q0 = self.points[s[0] as usize].position(p);
                 let q1 = self.points[s[1] as usize].position(p);
-                ((q0[0] - q1[0]).powi(2) + (q0[1] - q1[1]).powi(2) + (q0[2] - q1[2]).powi(2)).sqrt()
+                let d = [q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]];
+                match self.axis {
+                    Some(n) => (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]).abs(),
+                    None => (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt(),
+                }
             })
             .sum()
     }
