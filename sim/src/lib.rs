@@ -1,1 +1,6 @@
 //! Simulated tape measure, fault injection and pseudo-terminal wiring for tests and the demo.
+
+pub mod faults;
+pub mod proxy;
+pub mod pty;
+pub mod tape;
