@@ -11,6 +11,12 @@
 
 use std::sync::Arc;
 
+pub mod geometry;
+pub mod io;
+
+pub use geometry::{Aabb, Components, TriangleQuality};
+pub use io::MeshIoError;
+
 /// A 3D point or vector in metres, station frame (Z up, +Y front).
 pub type Vec3 = [f64; 3];
 
@@ -43,6 +49,16 @@ pub enum MeshError {
         /// Vertices the topology expects.
         expected: usize,
     },
+    /// Two meshes compared face by face do not have the same faces.
+    #[error(
+        "the meshes have different faces ({got} vs {expected} triangles or a different order)"
+    )]
+    TopologyMismatch {
+        /// Faces of the mesh checked.
+        got: usize,
+        /// Faces of the reference.
+        expected: usize,
+    },
 }
 
 /// Connectivity of a triangle mesh, independent of vertex positions.
@@ -60,6 +76,8 @@ pub struct Topology {
     ring_vertices: Vec<u32>,
     /// For each edge: the (one or two) faces that use it; `u32::MAX` if none.
     edge_faces: Vec<[u32; 2]>,
+    /// For each edge: how many faces use it (more than 2 = non-manifold).
+    edge_face_counts: Vec<u32>,
 }
 
 impl Topology {
@@ -101,8 +119,10 @@ impl Topology {
         directed.sort_unstable();
         let mut edges: Vec<[u32; 2]> = Vec::new();
         let mut edge_faces: Vec<[u32; 2]> = Vec::new();
+        let mut edge_face_counts: Vec<u32> = Vec::new();
         for &(a, b, fi) in &directed {
             if edges.last() == Some(&[a, b]) {
+                *edge_face_counts.last_mut().expect("parallels edges") += 1;
                 let ef = edge_faces.last_mut().expect("edge_faces parallels edges");
                 if ef[1] == u32::MAX {
                     ef[1] = fi;
@@ -110,6 +130,7 @@ impl Topology {
             } else {
                 edges.push([a, b]);
                 edge_faces.push([fi, u32::MAX]);
+                edge_face_counts.push(1);
             }
         }
         let mut degree = vec![0u32; n_vertices];
@@ -140,6 +161,7 @@ impl Topology {
             ring_offsets,
             ring_vertices,
             edge_faces,
+            edge_face_counts,
         })
     }
 
@@ -167,6 +189,13 @@ impl Topology {
     /// The faces using edge `e` (one for a boundary edge, two for an interior one).
     pub fn edge_faces(&self, e: usize) -> impl Iterator<Item = u32> + '_ {
         self.edge_faces[e].into_iter().filter(|&f| f != u32::MAX)
+    }
+
+    /// Number of faces using edge `e` (1 on a boundary, 2 inside a manifold
+    /// surface, more on a non-manifold edge, of which [`Topology::edge_faces`]
+    /// lists only the first two).
+    pub fn edge_face_count(&self, e: usize) -> usize {
+        self.edge_face_counts[e] as usize
     }
 
     /// One-ring neighbours of vertex `v`, sorted ascending.
