@@ -15,7 +15,10 @@ What it checks (each is a hard failure with a message):
      value, and is retransmitted while unacknowledged;
   4. after the host's Ack, retransmission stops;
   5. a live line (`P`) becomes a Live message with the right value;
-  6. bytes written to the tape port before `cont` are not lost (the paused start works).
+  6. bytes written to the tape port before `cont` are not lost (the paused start works);
+  7. `system_reset` on the monitor gives a new boot id (the boot counter works).
+The hello-period check spans the first wrap of the timer driver's 32-bit counter, which the
+driver places 2 s after boot for this purpose.
 
 Usage: check-qemu.py [--elf PATH] [--device-id N]   (builds nothing; run `cargo build
 --release` in firmware/boards first, or use run-qemu.sh's default ELF)
@@ -252,6 +255,13 @@ def main():
             boot = hello["boot_id"]
             boot_ids.append(boot)
             if launch == 1:
+                # 7: a reset within one QEMU run (same seed) must change the boot id too.
+                board.monitor("system_reset")
+                again = [f[2] for f in board.frames(1.5) if f[1] == "Hello"]
+                again = [h for h in again if h["boot_id"] != boot]
+                if not again:
+                    fail("no hello with a new boot id after system_reset")
+                print(f"boot id after system_reset: {again[0]['boot_id']:#010x}")
                 break
 
             os.write(board.host, host_hello())

@@ -6,7 +6,10 @@
 //!
 //! - TIMER0 (0x4000_0000, IRQ 8) free-runs down from `0xFFFF_FFFF` at PCLK (25 MHz); its
 //!   interrupt counts the 2^32-cycle periods, so `now` is a 64-bit cycle count that never
-//!   wraps in practice (2^64 cycles at 25 MHz is 23,000 years).
+//!   wraps in practice (2^64 cycles at 25 MHz is 23,000 years). The first period is cut
+//!   short: the counter starts [`FIRST_WRAP_S`] seconds before its first wrap, so that every
+//!   run, even a CI run of a few seconds, goes through the wrap handling (a wrap otherwise
+//!   comes only every 171 s).
 //! - TIMER1 (0x4000_1000, IRQ 9) is a one-shot alarm: armed for the cycles left until the
 //!   earliest queued wake-up (at most 2^32 - 1 cycles, 171 s; a later wake-up re-arms).
 //!
@@ -24,6 +27,13 @@ use embassy_time_queue_utils::Queue;
 
 /// APB clock of the MPS2 FPGA images (QEMU's `SYSCLK_FRQ`), Hz.
 pub const PCLK_HZ: u32 = 25_000_000;
+
+/// Seconds from `init` to TIMER0's first wrap.
+pub const FIRST_WRAP_S: u32 = 2;
+const FIRST_WRAP_CYCLES: u32 = FIRST_WRAP_S * PCLK_HZ;
+/// The raw cycle count at `init` (the counter starts part-way into its first period), taken
+/// off so that time starts at 0.
+const START_CYCLES: u64 = (1 << 32) - FIRST_WRAP_CYCLES as u64;
 
 const TIMER0: usize = 0x4000_0000;
 const TIMER1: usize = 0x4000_1000;
@@ -70,8 +80,9 @@ pub fn init() {
     write(TIMER1 + INTSTATUS, 1);
     write(TIMER0 + CTRL, 0);
     write(TIMER0 + INTSTATUS, 1);
+    // Writing RELOAD also loads the counter; VALUE then moves it closer to the first wrap.
     write(TIMER0 + RELOAD, u32::MAX);
-    write(TIMER0 + VALUE, u32::MAX);
+    write(TIMER0 + VALUE, FIRST_WRAP_CYCLES);
     write(TIMER0 + CTRL, CTRL_EN | CTRL_IRQEN);
 }
 
@@ -94,7 +105,8 @@ pub fn on_timer1_interrupt() {
 }
 
 impl Mps2TimeDriver {
-    /// Cycles since `init`.
+    /// Cycles since `init`. Never below `START_CYCLES` before the subtraction: the counter
+    /// only counts on from where `init` put it.
     fn cycles(&self, cs: CriticalSection<'_>) -> u64 {
         let mut periods = self.periods.borrow(cs).get();
         // The period count and the counter must be read as one. With interrupts off, a wrap
@@ -111,7 +123,7 @@ impl Mps2TimeDriver {
         // The interrupt fires as the counter reaches 0, so a period starts at 0 (elapsed 0),
         // goes on at 0xFFFF_FFFF after the reload (elapsed 1) and ends at 1 (elapsed
         // 2^32 - 1): elapsed = -value mod 2^32, monotonic across the wrap.
-        (u64::from(periods) << 32) | u64::from(value.wrapping_neg())
+        ((u64::from(periods) << 32) | u64::from(value.wrapping_neg())).saturating_sub(START_CYCLES)
     }
 
     fn ticks(&self, cs: CriticalSection<'_>) -> u64 {
