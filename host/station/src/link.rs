@@ -1,0 +1,861 @@
+//! The serial link to the tape firmware.
+//!
+//! Why a task with channels: the station's user interface (a TUI later, the
+//! `tapeshape station` printer now, tests) must keep drawing while the link
+//! waits for bytes, writes acknowledgements, commits readings and reopens a
+//! port that was pulled out. [`Link::spawn`] starts one tokio task that owns
+//! the port; the application talks to it through a [`LinkHandle`] (commands)
+//! and receives [`LinkEvent`]s on a channel. The link knows nothing of how
+//! events are shown.
+//!
+//! Rules (see `docs/wire-format.md` for the wire side):
+//!
+//! * **Handshake.** On opening the port the link sends a host hello; it
+//!   answers every device hello whose `boot_id` it has not greeted on this
+//!   connection. A device hello with an incompatible protocol version (a
+//!   different major) yields [`LinkEvent::VersionMismatch`], whose message
+//!   names both versions; readings from that device are ignored (never
+//!   acknowledged) until a compatible hello arrives.
+//! * **Commit before acknowledge.** A reading is committed to the
+//!   [`Store`] on a blocking thread; only after the commit returned does the
+//!   link write the cumulative `Ack`. A crash between the two costs nothing:
+//!   the device retransmits, the store recognises the duplicate and the link
+//!   acknowledges it again.
+//! * **Duplicates** (`seq` at or below the last committed one for the device
+//!   boot) are not stored; the link re-acknowledges the last committed
+//!   sequence number. **Gaps** (a reading after a missing one) are neither
+//!   stored nor acknowledged: the device sends the missing one first.
+//! * **Where a reading's measurement name comes from.** The device only
+//!   measures lengths; the host application decides what was measured. The
+//!   link holds a target session ([`LinkHandle::set_session`]) and a
+//!   [`Naming`] ([`LinkHandle::set_naming`]): the name of the measurement the
+//!   operator is taking now, a scripted list (tests and the demo), or
+//!   automatic `reading-N` names. A reading that arrives while there is no
+//!   open session or no name is **held**: not stored, not acknowledged
+//!   ([`LinkEvent::ReadingUnassigned`]); the device keeps retransmitting it
+//!   and it is committed as soon as a target is set.
+//! * **Reconnect.** A read error, end-of-file, a failed write, or the port's
+//!   path vanishing or pointing at another device ends the connection
+//!   ([`LinkEvent::Disconnected`]); the link then tries to reopen the path
+//!   every [`LinkConfig::reconnect_poll`] and handshakes again. Readings the
+//!   device still holds are retransmitted and land in the same session.
+//!   A device that stays silent for [`LinkConfig::silence_timeout`] is
+//!   pinged; one silent for three times that is treated as disconnected.
+//! * **Bad frames** (COBS, CRC, undecodable) are counted and dropped
+//!   ([`LinkEvent::BadFrame`]); the decoder resynchronises at the next
+//!   delimiter.
+
+use std::collections::{HashSet, VecDeque};
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use tapeshape_protocol::{
+    encode, ButtonKind, DeviceHello, DeviceMsg, Fault, FrameDecoder, FrameError, HostHello,
+    HostMsg, Live, ProtocolVersion, Reading, SoftwareVersion, Status, UnitShown, MAX_FRAME,
+    PROTOCOL_VERSION,
+};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::sync::mpsc;
+use tokio::task::JoinHandle;
+use tokio::time::Instant;
+use tokio_serial::{DataBits, FlowControl, Parity, SerialStream, StopBits};
+
+use crate::store::{CommitOutcome, DeviceReading, SessionId, Store, StoredReading};
+
+/// Settings of the link. [`LinkConfig::default`] suits the real station.
+#[derive(Clone, Debug)]
+pub struct LinkConfig {
+    /// Baud rate of the host link (8N1, no flow control). Pseudo-terminals
+    /// ignore it.
+    pub baud_rate: u32,
+    /// How often to try reopening a port that is gone.
+    pub reconnect_poll: Duration,
+    /// After opening, how long to wait for a compatible device hello before
+    /// sending the host hello again.
+    pub hello_retry: Duration,
+    /// Silence (no frame at all) after which the device is pinged; three
+    /// times this and the connection is taken as dead and reopened.
+    pub silence_timeout: Duration,
+    /// Protocol version the host announces. Leave at [`PROTOCOL_VERSION`];
+    /// tests change it to exercise the version check.
+    pub protocol: ProtocolVersion,
+    /// Host software version announced in the hello.
+    pub software: SoftwareVersion,
+    /// Capacity of the event channel. When the application does not keep
+    /// up, the link waits (bytes queue in the kernel); nothing is dropped.
+    pub event_capacity: usize,
+}
+
+impl Default for LinkConfig {
+    fn default() -> Self {
+        LinkConfig {
+            baud_rate: 115_200,
+            reconnect_poll: Duration::from_millis(200),
+            hello_retry: Duration::from_secs(1),
+            silence_timeout: Duration::from_secs(3),
+            protocol: PROTOCOL_VERSION,
+            software: host_software_version(),
+            event_capacity: 256,
+        }
+    }
+}
+
+/// This crate's version as a protocol [`SoftwareVersion`] (components above
+/// 255 saturate).
+pub fn host_software_version() -> SoftwareVersion {
+    let part = |s: &str| {
+        s.parse::<u64>()
+            .map_or(0, |v| u8::try_from(v).unwrap_or(u8::MAX))
+    };
+    SoftwareVersion {
+        major: part(env!("CARGO_PKG_VERSION_MAJOR")),
+        minor: part(env!("CARGO_PKG_VERSION_MINOR")),
+        patch: part(env!("CARGO_PKG_VERSION_PATCH")),
+    }
+}
+
+/// How the link names the readings it commits.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Naming {
+    /// No name: readings are held (not stored, not acknowledged) until a
+    /// name is set. The default.
+    None,
+    /// Every reading gets this name: the measurement the operator is taking
+    /// now. A second reading under the same name is a retake (the first is
+    /// kept, marked superseded).
+    Current(String),
+    /// Names used one per committed reading, in order; when the list is used
+    /// up, readings are held. For scripted runs (tests, the demo).
+    Script(VecDeque<String>),
+    /// `reading-1`, `reading-2`, ...: the number is the session's reading
+    /// count plus one. For runs where nobody says what is measured.
+    Numbered,
+}
+
+/// Commands to a running link (sent through [`LinkHandle`]).
+#[derive(Clone, Debug)]
+enum Command {
+    SetSession(Option<SessionId>),
+    SetNaming(Naming),
+    Ping,
+    GetStatus,
+    Shutdown,
+}
+
+/// The device spoke an incompatible protocol version.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VersionMismatch {
+    /// Protocol version in the device's hello.
+    pub device: ProtocolVersion,
+    /// Firmware version in the device's hello.
+    pub firmware: SoftwareVersion,
+    /// Protocol version this host speaks.
+    pub host: ProtocolVersion,
+}
+
+impl fmt::Display for VersionMismatch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "protocol version mismatch: the tape (firmware {}.{}.{}) speaks protocol {}.{}, \
+             this station speaks protocol {}.{}; the major numbers must match: update the \
+             tape's firmware or the station so they do",
+            self.firmware.major,
+            self.firmware.minor,
+            self.firmware.patch,
+            self.device.major,
+            self.device.minor,
+            self.host.major,
+            self.host.minor
+        )
+    }
+}
+
+impl std::error::Error for VersionMismatch {}
+
+/// Why a reading was not committed yet (it stays with the device, which
+/// retransmits it).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Unassigned {
+    /// No session is set.
+    NoSession,
+    /// No measurement name (see [`Naming`]).
+    NoName,
+}
+
+/// Counters of one link since it was spawned.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LinkCounters {
+    /// Frames decoded.
+    pub frames_ok: u64,
+    /// Frames dropped (COBS, CRC, too short, oversized, undecodable).
+    pub frames_bad: u64,
+    /// Readings committed.
+    pub committed: u64,
+    /// Duplicates re-acknowledged.
+    pub duplicates: u64,
+    /// Gaps seen.
+    pub gaps: u64,
+    /// Connections lost.
+    pub disconnects: u64,
+}
+
+/// What the link reports to the application.
+#[derive(Clone, Debug)]
+pub enum LinkEvent {
+    /// The port was opened; the handshake starts.
+    PortOpened {
+        /// The port's path.
+        path: PathBuf,
+    },
+    /// A compatible device said hello (also after a device reboot, with a
+    /// new `boot_id`).
+    Connected(DeviceHello),
+    /// The device speaks an incompatible protocol; its readings are ignored.
+    VersionMismatch(VersionMismatch),
+    /// Live tape value, for display only.
+    Live(Live),
+    /// A reading was committed to the store and acknowledged.
+    ReadingCommitted {
+        /// The stored reading.
+        reading: StoredReading,
+        /// Unit the tape displayed.
+        unit_shown: UnitShown,
+    },
+    /// A retransmission of a reading already committed: not stored again,
+    /// re-acknowledged.
+    Duplicate {
+        /// The duplicate's boot and sequence number.
+        boot_id: u32,
+        /// Its sequence number.
+        seq: u32,
+        /// What was acknowledged.
+        last_committed_seq: u32,
+    },
+    /// A reading arrived before an earlier one: not stored, not
+    /// acknowledged; the device resends the missing one.
+    Gap {
+        /// Boot id.
+        boot_id: u32,
+        /// Sequence number needed next.
+        expected: u32,
+        /// Sequence number received.
+        got: u32,
+    },
+    /// A reading could not be assigned to a session and measurement; it is
+    /// held by the device. Reported once per reading, not per
+    /// retransmission.
+    ReadingUnassigned {
+        /// The reading as sent.
+        reading: Reading,
+        /// What is missing.
+        why: Unassigned,
+    },
+    /// Committing a reading failed (for example the session was closed or
+    /// the disk is full); it was not acknowledged and the device keeps it.
+    CommitFailed {
+        /// The reading as sent.
+        reading: Reading,
+        /// The store's error message.
+        error: String,
+    },
+    /// A device button was pressed.
+    Button(ButtonKind),
+    /// Periodic device status.
+    Status(Status),
+    /// A device fault or its recovery.
+    Fault(Fault),
+    /// Answer to a ping.
+    Pong {
+        /// Round-trip time.
+        rtt: Duration,
+    },
+    /// A frame was dropped.
+    BadFrame {
+        /// Why.
+        error: FrameError,
+        /// Link counters after counting it.
+        counters: LinkCounters,
+    },
+    /// The connection ended; the link will try to reopen the port.
+    Disconnected {
+        /// What happened, in words.
+        reason: String,
+        /// Counters at that moment.
+        counters: LinkCounters,
+    },
+    /// The port cannot be opened (yet); the link keeps trying every
+    /// `reconnect_poll`. Reported once per distinct error.
+    WaitingForPort {
+        /// The open error, in words.
+        error: String,
+    },
+    /// The link stopped (after [`LinkHandle::shutdown`] or when every handle
+    /// was dropped).
+    Stopped,
+}
+
+/// Handle to a running link. Dropping every clone stops the link.
+#[derive(Clone, Debug)]
+pub struct LinkHandle {
+    cmd: mpsc::UnboundedSender<Command>,
+}
+
+impl LinkHandle {
+    fn send(&self, c: Command) {
+        // An error means the link task has ended (it reported `Stopped`).
+        let _ = self.cmd.send(c);
+    }
+
+    /// Sets the session that incoming readings are committed to (`None`:
+    /// hold them).
+    pub fn set_session(&self, session: Option<SessionId>) {
+        self.send(Command::SetSession(session));
+    }
+
+    /// Sets how incoming readings are named (see [`Naming`]).
+    pub fn set_naming(&self, naming: Naming) {
+        self.send(Command::SetNaming(naming));
+    }
+
+    /// Pings the device; the answer arrives as [`LinkEvent::Pong`].
+    pub fn ping(&self) {
+        self.send(Command::Ping);
+    }
+
+    /// Asks the device for a [`LinkEvent::Status`] now.
+    pub fn request_status(&self) {
+        self.send(Command::GetStatus);
+    }
+
+    /// Asks the link to stop; it closes the port and sends
+    /// [`LinkEvent::Stopped`]. Readings not yet acknowledged stay with the
+    /// device.
+    pub fn shutdown(&self) {
+        self.send(Command::Shutdown);
+    }
+}
+
+/// The serial link (see the module docs).
+#[derive(Debug)]
+pub struct Link;
+
+impl Link {
+    /// Starts the link on `port` (a device path such as `/dev/ttyACM0`, or a
+    /// pseudo-terminal's path) committing readings to `store`. Returns the
+    /// command handle, the event receiver and the task (which ends after
+    /// [`LinkEvent::Stopped`]). Must be called inside a tokio runtime with
+    /// time and I/O enabled.
+    ///
+    /// The port need not exist yet: the link waits for it.
+    pub fn spawn(
+        port: impl Into<PathBuf>,
+        config: LinkConfig,
+        store: Store,
+    ) -> (LinkHandle, mpsc::Receiver<LinkEvent>, JoinHandle<()>) {
+        let (cmd_tx, cmd_rx) = mpsc::unbounded_channel();
+        let (ev_tx, ev_rx) = mpsc::channel(config.event_capacity.max(1));
+        let task = LinkTask {
+            path: port.into(),
+            config,
+            store,
+            cmds: cmd_rx,
+            events: ev_tx,
+            session: None,
+            naming: Naming::None,
+            counters: LinkCounters::default(),
+            last_unassigned: None,
+        };
+        let join = tokio::spawn(task.run());
+        (LinkHandle { cmd: cmd_tx }, ev_rx, join)
+    }
+}
+
+/// Why a connection ended.
+enum End {
+    Shutdown,
+    Lost(String),
+}
+
+struct LinkTask {
+    path: PathBuf,
+    config: LinkConfig,
+    store: Store,
+    cmds: mpsc::UnboundedReceiver<Command>,
+    events: mpsc::Sender<LinkEvent>,
+    session: Option<SessionId>,
+    naming: Naming,
+    counters: LinkCounters,
+    /// (boot, seq) of the last reading reported unassigned, so that
+    /// retransmissions are not reported again.
+    last_unassigned: Option<(u32, u32)>,
+}
+
+/// Per-connection state.
+struct Conn {
+    port: SerialStream,
+    /// Identity of the path's target when opened, to notice it vanishing or
+    /// being replaced by another device.
+    identity: Option<(u64, u64)>,
+    decoder: FrameDecoder<DeviceMsg>,
+    /// Boot ids greeted with a host hello on this connection.
+    greeted: HashSet<u32>,
+    /// The compatible device on the other end, once it said hello.
+    device: Option<DeviceHello>,
+    last_rx: Instant,
+    last_hello_tx: Instant,
+    pinged_for_silence: bool,
+    ping_nonce: u32,
+    pings: Vec<(u32, Instant)>,
+}
+
+fn path_identity(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.rdev()))
+}
+
+impl LinkTask {
+    async fn emit(&self, ev: LinkEvent) {
+        // If the application dropped its receiver it no longer wants events;
+        // the link keeps committing and acknowledging regardless.
+        let _ = self.events.send(ev).await;
+    }
+
+    /// Applies a command; returns false on shutdown.
+    fn apply(&mut self, cmd: Option<Command>) -> bool {
+        match cmd {
+            None | Some(Command::Shutdown) => return false,
+            Some(Command::SetSession(s)) => {
+                self.session = s;
+                self.last_unassigned = None;
+            }
+            Some(Command::SetNaming(n)) => {
+                self.naming = n;
+                self.last_unassigned = None;
+            }
+            // Only meaningful while connected; handled there.
+            Some(Command::Ping) | Some(Command::GetStatus) => {}
+        }
+        true
+    }
+
+    async fn run(mut self) {
+        let mut last_open_error: Option<String> = None;
+        loop {
+            match self.open() {
+                Ok(port) => {
+                    last_open_error = None;
+                    self.emit(LinkEvent::PortOpened {
+                        path: self.path.clone(),
+                    })
+                    .await;
+                    let end = self.connection(port).await;
+                    match end {
+                        End::Shutdown => break,
+                        End::Lost(reason) => {
+                            self.counters.disconnects += 1;
+                            tracing::warn!(path = %self.path.display(), %reason, "link lost");
+                            self.emit(LinkEvent::Disconnected {
+                                reason,
+                                counters: self.counters,
+                            })
+                            .await;
+                        }
+                    }
+                }
+                Err(error) => {
+                    if last_open_error.as_deref() != Some(error.as_str()) {
+                        tracing::info!(path = %self.path.display(), %error, "waiting for port");
+                        self.emit(LinkEvent::WaitingForPort {
+                            error: error.clone(),
+                        })
+                        .await;
+                        last_open_error = Some(error);
+                    }
+                }
+            }
+            // Wait before (re)opening, still obeying commands.
+            let deadline = Instant::now() + self.config.reconnect_poll;
+            loop {
+                tokio::select! {
+                    cmd = self.cmds.recv() => {
+                        if !self.apply(cmd) {
+                            self.emit(LinkEvent::Stopped).await;
+                            return;
+                        }
+                    }
+                    _ = tokio::time::sleep_until(deadline) => break,
+                }
+            }
+        }
+        self.emit(LinkEvent::Stopped).await;
+    }
+
+    fn open(&self) -> Result<SerialStream, String> {
+        let path = self.path.to_string_lossy();
+        let builder = tokio_serial::new(path.as_ref(), self.config.baud_rate)
+            .data_bits(DataBits::Eight)
+            .parity(Parity::None)
+            .stop_bits(StopBits::One)
+            .flow_control(FlowControl::None);
+        // serialport opens exclusively (TIOCEXCL + flock) by default, so a
+        // second station on the same port fails here instead of stealing
+        // half the frames.
+        SerialStream::open(&builder).map_err(|e| format!("cannot open {path}: {e}"))
+    }
+
+    async fn connection(&mut self, port: SerialStream) -> End {
+        let now = Instant::now();
+        let mut conn = Conn {
+            port,
+            identity: path_identity(&self.path),
+            decoder: FrameDecoder::new(),
+            greeted: HashSet::new(),
+            device: None,
+            last_rx: now,
+            last_hello_tx: now,
+            pinged_for_silence: false,
+            ping_nonce: 0,
+            pings: Vec::new(),
+        };
+        if let Err(e) = self.send_hello(&mut conn).await {
+            return End::Lost(e);
+        }
+        let mut tick = tokio::time::interval(self.config.reconnect_poll);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        let mut buf = [0u8; 512];
+        loop {
+            tokio::select! {
+                r = conn.port.read(&mut buf) => match r {
+                    Ok(0) => return End::Lost("the port reached end-of-file (device unplugged?)".into()),
+                    Ok(n) => {
+                        conn.last_rx = Instant::now();
+                        conn.pinged_for_silence = false;
+                        let msgs: Vec<_> = conn.decoder.feed(&buf[..n]).collect();
+                        for msg in msgs {
+                            if let Err(e) = self.handle_frame(&mut conn, msg).await {
+                                return End::Lost(e);
+                            }
+                        }
+                    }
+                    Err(e) => return End::Lost(format!("read error: {e}")),
+                },
+                cmd = self.cmds.recv() => {
+                    let (ping, status) = (matches!(cmd, Some(Command::Ping)), matches!(cmd, Some(Command::GetStatus)));
+                    if !self.apply(cmd) {
+                        return End::Shutdown;
+                    }
+                    if ping {
+                        if let Err(e) = self.send_ping(&mut conn).await { return End::Lost(e); }
+                    }
+                    if status {
+                        if let Err(e) = self.write(&mut conn, &HostMsg::GetStatus).await { return End::Lost(e); }
+                    }
+                }
+                _ = tick.tick() => {
+                    if let Err(e) = self.housekeeping(&mut conn).await {
+                        return End::Lost(e);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Path check, hello retry, silence detection.
+    async fn housekeeping(&mut self, conn: &mut Conn) -> Result<(), String> {
+        let identity = path_identity(&self.path);
+        if identity.is_none() {
+            return Err(format!("{} disappeared", self.path.display()));
+        }
+        if identity != conn.identity {
+            return Err(format!(
+                "{} now points at another device",
+                self.path.display()
+            ));
+        }
+        let now = Instant::now();
+        if conn.device.is_none() && now - conn.last_hello_tx >= self.config.hello_retry {
+            self.send_hello(conn).await?;
+        }
+        let silent = now - conn.last_rx;
+        if silent >= self.config.silence_timeout * 3 {
+            return Err(format!(
+                "no data from the device for {:.1} s",
+                silent.as_secs_f64()
+            ));
+        }
+        if silent >= self.config.silence_timeout && !conn.pinged_for_silence {
+            conn.pinged_for_silence = true;
+            self.send_ping(conn).await?;
+        }
+        Ok(())
+    }
+
+    async fn write(&self, conn: &mut Conn, msg: &HostMsg) -> Result<(), String> {
+        let mut out = [0u8; MAX_FRAME];
+        // Every HostMsg fits a frame (checked by the protocol crate's
+        // largest-message test); an error here would be a protocol bug.
+        let frame = encode(msg, &mut out).map_err(|e| format!("cannot encode {msg:?}: {e}"))?;
+        conn.port
+            .write_all(frame)
+            .await
+            .map_err(|e| format!("write error: {e}"))
+    }
+
+    async fn send_hello(&self, conn: &mut Conn) -> Result<(), String> {
+        conn.last_hello_tx = Instant::now();
+        let hello = HostMsg::Hello(HostHello {
+            protocol: self.config.protocol,
+            software: self.config.software,
+        });
+        self.write(conn, &hello).await
+    }
+
+    async fn send_ping(&self, conn: &mut Conn) -> Result<(), String> {
+        conn.ping_nonce = conn.ping_nonce.wrapping_add(1);
+        conn.pings.push((conn.ping_nonce, Instant::now()));
+        if conn.pings.len() > 16 {
+            conn.pings.remove(0);
+        }
+        self.write(
+            conn,
+            &HostMsg::Ping {
+                nonce: conn.ping_nonce,
+            },
+        )
+        .await
+    }
+
+    /// Handles one decoded frame. An `Err` ends the connection.
+    async fn handle_frame(
+        &mut self,
+        conn: &mut Conn,
+        msg: Result<DeviceMsg, FrameError>,
+    ) -> Result<(), String> {
+        let msg = match msg {
+            Ok(m) => {
+                self.counters.frames_ok += 1;
+                m
+            }
+            Err(error) => {
+                self.counters.frames_bad += 1;
+                tracing::debug!(%error, "bad frame dropped");
+                self.emit(LinkEvent::BadFrame {
+                    error,
+                    counters: self.counters,
+                })
+                .await;
+                return Ok(());
+            }
+        };
+        match msg {
+            DeviceMsg::Hello(hello) => self.on_hello(conn, hello).await?,
+            DeviceMsg::Reading(r) => self.on_reading(conn, r).await?,
+            DeviceMsg::Live(l) => self.emit(LinkEvent::Live(l)).await,
+            DeviceMsg::Button { kind } => self.emit(LinkEvent::Button(kind)).await,
+            DeviceMsg::Status(s) => self.emit(LinkEvent::Status(s)).await,
+            DeviceMsg::Fault(f) => self.emit(LinkEvent::Fault(f)).await,
+            DeviceMsg::Pong { nonce } => {
+                if let Some(i) = conn.pings.iter().position(|(n, _)| *n == nonce) {
+                    let (_, sent) = conn.pings.remove(i);
+                    self.emit(LinkEvent::Pong {
+                        rtt: sent.elapsed(),
+                    })
+                    .await;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    async fn on_hello(&mut self, conn: &mut Conn, hello: DeviceHello) -> Result<(), String> {
+        let first_time = conn.greeted.insert(hello.boot_id);
+        if first_time {
+            self.send_hello(conn).await?;
+        }
+        if !self.config.protocol.is_compatible(&hello.protocol) {
+            conn.device = None;
+            if first_time {
+                let mismatch = VersionMismatch {
+                    device: hello.protocol,
+                    firmware: hello.firmware,
+                    host: self.config.protocol,
+                };
+                tracing::error!("{mismatch}");
+                self.emit(LinkEvent::VersionMismatch(mismatch)).await;
+            }
+            return Ok(());
+        }
+        let changed =
+            conn.device.map(|d| (d.device_id, d.boot_id)) != Some((hello.device_id, hello.boot_id));
+        conn.device = Some(hello);
+        if changed {
+            tracing::info!(
+                device_id = format_args!("{:016x}", hello.device_id),
+                boot_id = hello.boot_id,
+                "device connected"
+            );
+            self.emit(LinkEvent::Connected(hello)).await;
+        }
+        Ok(())
+    }
+
+    /// The name for the next reading of `session`, or why there is none.
+    fn next_name(&self, session: SessionId) -> Result<String, Unassigned> {
+        match &self.naming {
+            Naming::None => Err(Unassigned::NoName),
+            Naming::Current(n) => Ok(n.clone()),
+            Naming::Script(q) => q.front().cloned().ok_or(Unassigned::NoName),
+            Naming::Numbered => {
+                let n = self
+                    .store
+                    .open_session(session)
+                    .map(|d| d.readings.len())
+                    .unwrap_or(0);
+                Ok(format!("reading-{}", n + 1))
+            }
+        }
+    }
+
+    async fn on_reading(&mut self, conn: &mut Conn, r: Reading) -> Result<(), String> {
+        let Some(device) = conn.device else {
+            // Before a compatible hello we do not know who sent it; the
+            // device retransmits after the handshake.
+            tracing::debug!(seq = r.seq, "reading before a compatible hello ignored");
+            return Ok(());
+        };
+        if r.boot_id != device.boot_id {
+            tracing::debug!(
+                seq = r.seq,
+                boot_id = r.boot_id,
+                "reading from another boot than the hello's ignored"
+            );
+            return Ok(());
+        }
+        let dev = DeviceReading {
+            device_id: device.device_id,
+            boot_id: r.boot_id,
+            seq: r.seq,
+            value_tenth_mm: r.value_tenth_mm,
+            device_time_ms: r.timestamp_ms,
+        };
+        // Duplicates are acknowledged whether or not a session is set: the
+        // store already has them.
+        let last = self.blocking({
+            let store = self.store.clone();
+            move || store.last_committed_seq(dev.device_id, dev.boot_id)
+        });
+        let last = match last.await {
+            Ok(l) => l,
+            Err(e) => {
+                self.emit(LinkEvent::CommitFailed {
+                    reading: r,
+                    error: e,
+                })
+                .await;
+                return Ok(());
+            }
+        };
+        let target = match self.session {
+            None => Err(Unassigned::NoSession),
+            Some(s) => self.next_name(s).map(|n| (s, n)),
+        };
+        let (session, name) = match (target, last) {
+            (_, Some(last)) if r.seq <= last => {
+                return self.on_duplicate(conn, r, last).await;
+            }
+            (Ok(t), _) => t,
+            (Err(why), _) => {
+                if self.last_unassigned != Some((r.boot_id, r.seq)) {
+                    self.last_unassigned = Some((r.boot_id, r.seq));
+                    self.emit(LinkEvent::ReadingUnassigned { reading: r, why })
+                        .await;
+                }
+                return Ok(());
+            }
+        };
+        let outcome = self
+            .blocking({
+                let store = self.store.clone();
+                let name = name.clone();
+                move || store.commit_reading(session, &name, &dev)
+            })
+            .await;
+        match outcome {
+            Ok(CommitOutcome::Committed(reading)) => {
+                // Committed and durable: now, and only now, acknowledge.
+                self.write(
+                    conn,
+                    &HostMsg::Ack {
+                        boot_id: r.boot_id,
+                        seq: r.seq,
+                    },
+                )
+                .await?;
+                self.counters.committed += 1;
+                if let Naming::Script(q) = &mut self.naming {
+                    if q.front() == Some(&name) {
+                        q.pop_front();
+                    }
+                }
+                self.emit(LinkEvent::ReadingCommitted {
+                    reading,
+                    unit_shown: r.unit_shown,
+                })
+                .await;
+            }
+            Ok(CommitOutcome::Duplicate { last_committed_seq }) => {
+                self.on_duplicate(conn, r, last_committed_seq).await?;
+            }
+            Ok(CommitOutcome::Gap { expected, got }) => {
+                self.counters.gaps += 1;
+                tracing::debug!(expected, got, "gap: reading not stored, not acknowledged");
+                self.emit(LinkEvent::Gap {
+                    boot_id: r.boot_id,
+                    expected,
+                    got,
+                })
+                .await;
+            }
+            Err(error) => {
+                tracing::error!(seq = r.seq, %error, "commit failed; reading not acknowledged");
+                self.emit(LinkEvent::CommitFailed { reading: r, error })
+                    .await;
+            }
+        }
+        Ok(())
+    }
+
+    async fn on_duplicate(&mut self, conn: &mut Conn, r: Reading, last: u32) -> Result<(), String> {
+        self.write(
+            conn,
+            &HostMsg::Ack {
+                boot_id: r.boot_id,
+                seq: last,
+            },
+        )
+        .await?;
+        self.counters.duplicates += 1;
+        self.emit(LinkEvent::Duplicate {
+            boot_id: r.boot_id,
+            seq: r.seq,
+            last_committed_seq: last,
+        })
+        .await;
+        Ok(())
+    }
+
+    /// Runs a store call on tokio's blocking pool (SQLite calls block on
+    /// fsync), turning errors into text for the events.
+    async fn blocking<T, F>(&self, f: F) -> Result<T, String>
+    where
+        T: Send + 'static,
+        F: FnOnce() -> Result<T, crate::store::StoreError> + Send + 'static,
+    {
+        match tokio::task::spawn_blocking(f).await {
+            Ok(r) => r.map_err(|e| e.to_string()),
+            Err(e) => Err(format!("store task failed: {e}")),
+        }
+    }
+}
