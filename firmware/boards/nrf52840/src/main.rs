@@ -13,8 +13,8 @@
 //!   sees `/dev/ttyACM*` and the link runs at USB speed, independent of the baud rate the
 //!   host sets. A second UARTE would need a USB-serial bridge and would couple the link to
 //!   a baud rate; USB is what the station PC has anyway.
-//! - Identity: device id = FICR DEVICEID (64-bit factory id); boot id = 32 bits from the
-//!   RNG peripheral at boot.
+//! - Identity: device id = FICR DEVICEID (64-bit factory id), also the USB serial number
+//!   (16 hex digits); boot id = 32 bits from the RNG peripheral at boot.
 //! - Time: RTC1 at 32,768 Hz (embassy-nrf `time-driver-rtc1`).
 #![no_std]
 #![no_main]
@@ -56,6 +56,20 @@ fn device_id() -> u64 {
     let low = pac::FICR.deviceid(0).read();
     let high = pac::FICR.deviceid(1).read();
     (u64::from(high) << 32) | u64::from(low)
+}
+
+/// The device id as 16 upper-case hex digits, for the USB serial number string: the host
+/// then names the port after the device (`/dev/serial/by-id/usb-tapeshape_..._<ID>-if00`),
+/// so a station with two tapes, or a replaced one, is told apart without opening the port.
+fn usb_serial(device_id: u64) -> &'static str {
+    static SERIAL: StaticCell<[u8; 16]> = StaticCell::new();
+    let digits = SERIAL.init([0; 16]);
+    for (i, digit) in digits.iter_mut().enumerate() {
+        let nibble = (device_id >> (60 - 4 * i)) & 0xF;
+        *digit = b"0123456789ABCDEF"[nibble as usize];
+    }
+    // Hex digits are ASCII, so this cannot fail.
+    core::str::from_utf8(digits).unwrap_or("")
 }
 
 /// 32 random bits from the RNG peripheral (bias correction on).
@@ -192,7 +206,7 @@ async fn main(spawner: Spawner) {
     let mut usb_config = embassy_usb::Config::new(USB_VID, USB_PID);
     usb_config.manufacturer = Some("tapeshape");
     usb_config.product = Some("tapeshape tape station");
-    usb_config.serial_number = None;
+    usb_config.serial_number = Some(usb_serial(device_id));
     usb_config.max_power = 100;
     usb_config.max_packet_size_0 = 64;
 
