@@ -25,7 +25,7 @@ set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 build=1
-elf="$here/target/thumbv7em-none-eabihf/release/tapeshape-mps2-an386"
+elf=""
 seed=""
 state=""
 while [ $# -gt 0 ]; do
@@ -45,6 +45,12 @@ command -v qemu-system-arm >/dev/null || {
     echo "run-qemu.sh: qemu-system-arm not found (Debian: apt-get install -y qemu-system-arm)" >&2
     exit 1
 }
+if [ -z "$elf" ]; then
+    # Honours CARGO_TARGET_DIR and build.target-dir, like cargo itself.
+    target_dir="$(cd "$here" && cargo metadata --format-version 1 --no-deps |
+        sed -n 's/.*"target_directory":"\([^"]*\)".*/\1/p')"
+    elf="$target_dir/thumbv7em-none-eabihf/release/tapeshape-mps2-an386"
+fi
 if [ "$build" = 1 ]; then
     (cd "$here" && cargo build --release -p tapeshape-board-mps2-an386)
 fi

@@ -14,6 +14,8 @@ cd "$here"
 if [ "${1:-}" != "--no-build" ]; then
     cargo build --release
 fi
+# Honours CARGO_TARGET_DIR and build.target-dir, like cargo itself.
+target_dir="$(cargo metadata --format-version 1 --no-deps | sed -n 's/.*"target_directory":"\([^"]*\)".*/\1/p')"
 host="$(rustc -vV | sed -n 's/^host: //p')"
 size="$(rustc --print sysroot)/lib/rustlib/$host/bin/llvm-size"
 if [ ! -x "$size" ]; then
@@ -26,7 +28,7 @@ ram_max=$((32 * 1024))
 status=0
 printf '%-22s %8s %8s %8s %10s %12s\n' binary text data bss flash static_ram
 for bin in tapeshape-nrf52840 tapeshape-mps2-an386; do
-    elf="target/thumbv7em-none-eabihf/release/$bin"
+    elf="$target_dir/thumbv7em-none-eabihf/release/$bin"
     # Berkeley format: text data bss dec hex filename
     read -r text data bss _ < <("$size" -B "$elf" | sed -n 2p)
     flash=$((text + data))
