@@ -66,6 +66,55 @@ impl Support {
             })
             .sum()
     }
+
+    /// Adds `scale * d length / d p` to `grad` (one entry per vertex, same
+    /// length as `p`), with the support held fixed: the points' vertex pairs
+    /// and weights `t` do not move, as in the paper's energies. For a
+    /// Euclidean segment the derivative with respect to its end `q1` is the
+    /// unit vector `(q1 - q0) / |q1 - q0|`; with an axis it is
+    /// `sign(n . (q1 - q0)) n`. A point `(a, b, t)` passes `(1 - t)` of its
+    /// derivative to vertex `a` and `t` to vertex `b`. Zero-length segments
+    /// contribute nothing (the length is not differentiable there).
+    pub fn add_gradient(&self, p: &[Vec3], scale: f64, grad: &mut [Vec3]) {
+        for s in &self.segments {
+            let (s0, s1) = (self.points[s[0] as usize], self.points[s[1] as usize]);
+            let (q0, q1) = (s0.position(p), s1.position(p));
+            let d = [q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]];
+            let g = match self.axis {
+                Some(n) => {
+                    let proj = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+                    if proj == 0.0 {
+                        continue;
+                    }
+                    let sgn = proj.signum();
+                    [sgn * n[0], sgn * n[1], sgn * n[2]]
+                }
+                None => {
+                    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    if l == 0.0 {
+                        continue;
+                    }
+                    [d[0] / l, d[1] / l, d[2] / l]
+                }
+            };
+            for (pt, sign) in [(s1, scale), (s0, -scale)] {
+                for (v, w) in [(pt.a, 1.0 - pt.t), (pt.b, pt.t)] {
+                    let gv = &mut grad[v as usize];
+                    for k in 0..3 {
+                        gv[k] += sign * w * g[k];
+                    }
+                }
+            }
+        }
+    }
+
+    /// `d length / d p` for positions `p` (see [`Support::add_gradient`]):
+    /// one 3-vector per vertex, dimensionless (metres per metre).
+    pub fn gradient(&self, p: &[Vec3]) -> Vec<Vec3> {
+        let mut g = vec![[0.0; 3]; p.len()];
+        self.add_gradient(p, 1.0, &mut g);
+        g
+    }
 }
 
 /// One measurement's value (metres) and its support.
