@@ -332,3 +332,276 @@ pub fn format_fields(
     };
     Ok(line)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::vec::Vec;
+
+    fn lines(stream: &[u8]) -> Vec<Result<Line, LineError>> {
+        let mut a = LineAssembler::new();
+        stream.iter().filter_map(|&b| a.push(b)).collect()
+    }
+
+    fn value(v: u32, kind: Kind, unit_shown: UnitShown) -> Result<Line, LineError> {
+        Ok(Line::Value(TapeLine {
+            value_hundredths_cm: v,
+            kind,
+            unit_shown,
+            field2: 0,
+            field3: 0,
+        }))
+    }
+
+    #[test]
+    fn documented_example_is_20_50_cm_live_metric() {
+        assert_eq!(
+            parse_line(b"*02050;00000;0000PM"),
+            value(2050, Kind::Live, UnitShown::Metric)
+        );
+        assert_eq!(
+            parse_line(b"*08520;00000;0000SI"),
+            value(8520, Kind::Confirmed, UnitShown::Imperial)
+        );
+        assert_eq!(
+            parse_line(b"*30000;00000;0000SM"),
+            value(30000, Kind::Confirmed, UnitShown::Metric)
+        );
+        assert_eq!(
+            parse_line(b"*00001;12345;6789PI"),
+            Ok(Line::Value(TapeLine {
+                value_hundredths_cm: 1,
+                kind: Kind::Live,
+                unit_shown: UnitShown::Imperial,
+                field2: 12345,
+                field3: 6789,
+            }))
+        );
+    }
+
+    #[test]
+    fn heartbeat_is_the_all_zero_live_line() {
+        assert_eq!(parse_line(b"*00000;00000;0000PM"), Ok(Line::Heartbeat));
+        assert_eq!(parse_line(b"*00000;00000;0000PI"), Ok(Line::Heartbeat));
+        assert_eq!(parse_line(&HEARTBEAT_LINE[..LINE_LEN]), Ok(Line::Heartbeat));
+        // Zero value with other fields set is a live zero, not a heartbeat.
+        assert_eq!(
+            parse_line(b"*00000;00001;0000PM").map(|l| matches!(l, Line::Value(_))),
+            Ok(true)
+        );
+        // A confirmed zero is impossible.
+        assert_eq!(
+            parse_line(b"*00000;00000;0000SM"),
+            Err(LineError::Impossible {
+                why: Impossible::ConfirmedZero
+            })
+        );
+    }
+
+    #[test]
+    fn each_rejection_is_typed() {
+        use LineError::*;
+        let cases: &[(&[u8], LineError)] = &[
+            (b"*02050;00000;0000P", Partial { len: 18 }),
+            (b"*0", Partial { len: 2 }),
+            (b"*02050;00000;0000PMX", Overlong),
+            (b"#02050;00000;0000PM", Garbage),
+            (b"*02050,00000;0000PM", Garbage),
+            (b"*02050;00000,0000PM", Garbage),
+            (b"*02050;00000;0000P\x01", Garbage),
+            (b"*02050;00000;0000P\xc3", Garbage),
+            (b"*02a50;00000;0000PM", BadField { field: 1 }),
+            (b"* 2050;00000;0000PM", BadField { field: 1 }),
+            (b"*+2050;00000;0000PM", BadField { field: 1 }),
+            (b"*02050;0000x;0000PM", BadField { field: 2 }),
+            (b"*02050;00000;00-0PM", BadField { field: 3 }),
+            (b"*02050;00000;0000XM", BadField { field: 4 }),
+            (b"*02050;00000;0000pM", BadField { field: 4 }),
+            (b"*02050;00000;0000PC", BadField { field: 5 }),
+            (
+                b"*-2050;00000;0000PM",
+                Impossible {
+                    why: super::Impossible::Negative,
+                },
+            ),
+            (
+                b"*30001;00000;0000SM",
+                Impossible {
+                    why: super::Impossible::TooLong {
+                        value_hundredths_cm: 30001,
+                    },
+                },
+            ),
+            (
+                b"*99999;00000;0000PM",
+                Impossible {
+                    why: super::Impossible::TooLong {
+                        value_hundredths_cm: 99999,
+                    },
+                },
+            ),
+        ];
+        for (line, want) in cases {
+            assert_eq!(
+                parse_line(line),
+                Err(*want),
+                "{:?}",
+                core::str::from_utf8(line)
+            );
+        }
+    }
+
+    #[test]
+    fn assembler_handles_lf_crlf_and_cr_endings() {
+        let s = b"*02050;00000;0000PM\n*02060;00000;0000PM\r\n*02070;00000;0000SM\r";
+        assert_eq!(
+            lines(s),
+            [
+                value(2050, Kind::Live, UnitShown::Metric),
+                value(2060, Kind::Live, UnitShown::Metric),
+                value(2070, Kind::Confirmed, UnitShown::Metric),
+            ]
+        );
+        // Blank lines carry nothing.
+        assert!(lines(b"\n\r\n\n").is_empty());
+    }
+
+    #[test]
+    fn assembler_resyncs_on_star_after_a_lost_line_end() {
+        // The first line lost its tail and newline; the next line is read normally.
+        let s = b"*0205*02060;00000;0000PM\n";
+        assert_eq!(
+            lines(s),
+            [
+                Err(LineError::Partial { len: 5 }),
+                value(2060, Kind::Live, UnitShown::Metric),
+            ]
+        );
+        // Joined mid-line: the tail is a partial line, then in step.
+        let s = b"0;00000;0000PM\n*02060;00000;0000PM\n";
+        assert_eq!(
+            lines(s),
+            [
+                Err(LineError::Partial { len: 14 }),
+                value(2060, Kind::Live, UnitShown::Metric),
+            ]
+        );
+    }
+
+    #[test]
+    fn overlong_is_reported_once_at_once_then_skipped() {
+        let mut a = LineAssembler::new();
+        let mut out = Vec::new();
+        for (i, &b) in b"*02050;00000;0000PMMMMMMMMMMMMMMMMMMM".iter().enumerate() {
+            if let Some(r) = a.push(b) {
+                out.push((i, r));
+            }
+        }
+        // Reported on the 20th character, not later.
+        assert_eq!(out, [(19, Err(LineError::Overlong))]);
+        // The terminator ends the skipped line silently (already reported), and the next
+        // line is fine.
+        let rest: Vec<_> = b"MMM\n*02050;00000;0000PM\n"
+            .iter()
+            .filter_map(|&b| a.push(b))
+            .collect();
+        assert_eq!(rest, [value(2050, Kind::Live, UnitShown::Metric)]);
+    }
+
+    #[test]
+    fn format_then_parse_round_trips() {
+        for v in [0u32, 1, 2050, 8520, 29999, 30000] {
+            for kind in [Kind::Live, Kind::Confirmed] {
+                for unit in [UnitShown::Metric, UnitShown::Imperial] {
+                    let line = format_line(v, kind, unit).unwrap();
+                    assert_eq!(line.len(), 20);
+                    assert_eq!(line[19], b'\n');
+                    let got = parse_line(&line[..LINE_LEN]);
+                    match (v, kind) {
+                        (0, Kind::Live) => assert_eq!(got, Ok(Line::Heartbeat)),
+                        (0, Kind::Confirmed) => assert!(got.is_err()),
+                        _ => assert_eq!(got, value(v, kind, unit)),
+                    }
+                }
+            }
+        }
+        assert_eq!(
+            &format_line(2050, Kind::Live, UnitShown::Metric).unwrap(),
+            b"*02050;00000;0000PM\n"
+        );
+        assert_eq!(
+            format_line(100_000, Kind::Live, UnitShown::Metric),
+            Err(ValueTooWide(100_000))
+        );
+        assert_eq!(
+            format_fields(1, 100_000, 0, Kind::Live, UnitShown::Metric),
+            Err(ValueTooWide(100_000))
+        );
+        assert_eq!(
+            format_fields(1, 0, 10_000, Kind::Live, UnitShown::Metric),
+            Err(ValueTooWide(10_000))
+        );
+    }
+
+    #[test]
+    fn reasons_map_to_the_wire() {
+        assert_eq!(
+            LineError::Impossible {
+                why: Impossible::TooLong {
+                    value_hundredths_cm: 31000
+                }
+            }
+            .reason(),
+            RejectReason::OutOfRange {
+                value_tenth_mm: 31000
+            }
+        );
+        assert_eq!(
+            LineError::Impossible {
+                why: Impossible::Negative
+            }
+            .reason(),
+            RejectReason::Negative
+        );
+        assert_eq!(
+            LineError::Partial { len: 3 }.reason(),
+            RejectReason::Partial { len: 3 }
+        );
+    }
+
+    mod props {
+        use super::*;
+        use proptest::prelude::*;
+
+        proptest! {
+            /// Any byte stream: no panic, bounded memory, and a valid line after a terminator
+            /// always parses.
+            #[test]
+            fn random_bytes_never_panic_and_resync(
+                junk in prop::collection::vec(any::<u8>(), 0..300),
+                v in 1u32..=MAX_TAPE_HUNDREDTHS_CM,
+                confirmed in any::<bool>(),
+            ) {
+                let mut a = LineAssembler::new();
+                for &b in &junk {
+                    let _ = a.push(b);
+                    prop_assert!(a.pending_len() <= LINE_LEN);
+                }
+                let kind = if confirmed { Kind::Confirmed } else { Kind::Live };
+                let mut s = std::vec![b'\n'];
+                s.extend_from_slice(&format_line(v, kind, UnitShown::Metric).unwrap());
+                let out: Vec<_> = s.iter().filter_map(|&b| a.push(b)).collect();
+                prop_assert_eq!(out.last(), Some(&value(v, kind, UnitShown::Metric)));
+            }
+
+            /// Only well-formed lines parse as values, and then the value is what the line says.
+            #[test]
+            fn parse_accepts_only_what_format_writes(line in prop::collection::vec(any::<u8>(), 19)) {
+                if let Ok(Line::Value(l)) = parse_line(&line) {
+                    let back = format_fields(l.value_hundredths_cm, l.field2, l.field3, l.kind, l.unit_shown).unwrap();
+                    prop_assert_eq!(&back[..LINE_LEN], &line[..]);
+                }
+            }
+        }
+    }
+}
