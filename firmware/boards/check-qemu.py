@@ -35,6 +35,9 @@ import tty
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_DEVICE_ID = 0x4D50533200000386
+# The RAM region of mps2-an386/memory.x: the stack grows down from RAM_TOP.
+RAM_BASE = 0x20000000
+RAM_TOP = 0x2000FFF0
 
 # ---------------------------------------------------------------- wire format (protocol/)
 
@@ -185,6 +188,39 @@ class Board:
             s.sendall(command.encode() + b"\n")
             time.sleep(0.1)
 
+    def monitor_query(self, command: str) -> str:
+        """Runs a monitor command and returns its output (up to the next prompt)."""
+        with socket.socket(socket.AF_UNIX) as s:
+            s.connect(self.env["MONITOR"])
+            s.settimeout(5)
+            out = b""
+            while not out.endswith(b"(qemu) "):  # the banner and first prompt
+                out += s.recv(65536)
+            s.sendall(command.encode() + b"\n")
+            out = b""
+            while not out.endswith(b"(qemu) "):
+                out += s.recv(65536)
+            return out.decode(errors="replace")
+
+    def stack_used(self) -> int:
+        """Deepest stack use so far, bytes. The firmware is built with cortex-m-rt's
+        `paint-stack`: the stack starts filled with 0xCCCCCCCC, and the lowest word that is
+        no longer paint marks the deepest point the stack (interrupts included) reached.
+        A lower bound of the true need: only the paths this check drove are measured."""
+        words = []
+        for line in self.monitor_query(f"xp /{(RAM_TOP - RAM_BASE) // 4}wx {RAM_BASE:#x}").splitlines():
+            if ":" in line and line.strip().startswith("00"):
+                words += [int(w, 16) for w in line.split(":", 1)[1].split()]
+        # The painted area is the longest run of paint (a static may hold the value by
+        # chance, but not for kilobytes); the word after it is the deepest one used.
+        paint = 0xCCCCCCCC
+        best_end, best_len, run = 0, 0, 0
+        for i, word in enumerate(words):
+            run = run + 1 if word == paint else 0
+            if run > best_len:
+                best_end, best_len = i + 1, run
+        return RAM_TOP - (RAM_BASE + 4 * best_end)
+
     def frames(self, seconds: float):
         """Yields (time, tag, fields) for each frame from the device within `seconds`."""
         end = time.monotonic() + seconds
@@ -285,6 +321,7 @@ def main():
             print("readings after ack:", len(after))
             if after:
                 fail("retransmission went on after the Ack")
+            print(f"stack high-water mark: {board.stack_used()} bytes")
         finally:
             board.close()
     if boot_ids[0] == boot_ids[1]:
