@@ -16,6 +16,12 @@
 //! - Identity: device id = FICR DEVICEID (64-bit factory id), also the USB serial number
 //!   (16 hex digits); boot id = 32 bits from the RNG peripheral at boot.
 //! - Time: RTC1 at 32,768 Hz (embassy-nrf `time-driver-rtc1`).
+//! - Recovery: a station must come back by itself, so a panic resets the chip (instead of
+//!   halting it until someone power-cycles the station), and the hardware watchdog (2 s)
+//!   resets it if the cooperative executor stops running tasks: a task that never yields,
+//!   or a fault (the HardFault handler loops). The host sees the new boot id and resumes;
+//!   readings it has acknowledged are already stored on its side. (The mps2-an386 build
+//!   halts on panic instead, so that a panic in CI shows as a failure, not as a reboot.)
 #![no_std]
 #![no_main]
 
@@ -23,12 +29,11 @@ use embassy_executor::Spawner;
 use embassy_nrf::buffered_uarte::{self, BufferedUarte};
 use embassy_nrf::usb::vbus_detect::HardwareVbusDetect;
 use embassy_nrf::usb::{self, Driver};
-use embassy_nrf::{bind_interrupts, config, pac, peripherals, rng, uarte, Peri};
+use embassy_nrf::{bind_interrupts, config, pac, peripherals, rng, uarte, wdt, Peri};
 use embassy_time::{with_timeout, Duration, Instant, Timer};
 use embassy_usb::class::cdc_acm::{BufferedReceiver, CdcAcmClass, CdcAcmError, Sender, State};
 use embassy_usb::UsbDevice;
 use embedded_io_async::{Read, Write};
-use panic_halt as _;
 use static_cell::StaticCell;
 use tapeshape_firmware::{run, Clock, Config, Device};
 
@@ -173,6 +178,40 @@ impl Read for HostRx {
     }
 }
 
+/// Watchdog period, in 32,768 Hz ticks (2 s).
+const WATCHDOG_TICKS: u32 = 2 * 32_768;
+/// How often the watchdog task pets the watchdog.
+const WATCHDOG_PET: Duration = Duration::from_millis(500);
+
+#[panic_handler]
+fn panic(_info: &core::panic::PanicInfo) -> ! {
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+/// Starts the watchdog, or finds it already running from before a soft reset (it survives
+/// one) with the same settings. With other settings (a different firmware set it up) it
+/// cannot be changed until it expires; it then resets the chip, and the next boot takes it
+/// over.
+fn start_watchdog(wdt_peripheral: Peri<'static, peripherals::WDT>) -> Option<wdt::WatchdogHandle> {
+    let mut config = wdt::Config::default();
+    config.timeout_ticks = WATCHDOG_TICKS;
+    // Stopping at a breakpoint must not reset the chip under the debugger.
+    config.action_during_debug_halt = wdt::HaltConfig::Pause;
+    match wdt::Watchdog::try_new::<_, 1>(wdt_peripheral, config) {
+        Ok((_watchdog, [handle])) => Some(handle),
+        Err(_) => None,
+    }
+}
+
+/// Pets the watchdog while the executor keeps running tasks.
+#[embassy_executor::task]
+async fn watchdog_task(mut handle: wdt::WatchdogHandle) -> ! {
+    loop {
+        handle.pet();
+        Timer::after(WATCHDOG_PET).await;
+    }
+}
+
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
     let mut config = config::Config::default();
@@ -180,6 +219,13 @@ async fn main(spawner: Spawner) {
     config.hfclk_source = config::HfclkSource::ExternalXtal;
     let p = embassy_nrf::init(config);
 
+    if let Some(handle) = start_watchdog(p.WDT) {
+        match watchdog_task(handle) {
+            Ok(token) => spawner.spawn(token),
+            // Unreachable: the task's pool holds one and it is spawned once.
+            Err(_) => cortex_m::asm::udf(),
+        }
+    }
     let boot_id = boot_id(p.RNG);
     let device_id = device_id();
 
