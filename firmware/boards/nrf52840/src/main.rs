@@ -5,8 +5,8 @@
 //! the hello message.
 //!
 //! - Tape: UARTE0 through embassy-nrf's `BufferedUarte` (interrupt + DMA into a ring, so
-//!   bytes keep arriving while the task is busy), 9600 baud 8N1, RXD = P0.08, TXD = P0.06.
-//!   These are the DK's interface-MCU virtual COM port pins: with no tape attached, tape
+//!   bytes keep arriving while the task is busy), receive only, 9600 baud 8N1, RXD = P0.08.
+//!   This is the DK's interface-MCU virtual COM port pin: with no tape attached, tape
 //!   lines typed into the J-Link VCOM port reach the firmware, which is how the board is
 //!   tested on the bench. A real tape's TX line (3.3 V logic) goes to P0.08, GND to GND.
 //! - Host: USB CDC-ACM (embassy-usb) on the nRF USB connector (J3 on the DK), so the host
@@ -26,7 +26,7 @@
 #![no_main]
 
 use embassy_executor::Spawner;
-use embassy_nrf::buffered_uarte::{self, BufferedUarte};
+use embassy_nrf::buffered_uarte::{self, BufferedUarteRx};
 use embassy_nrf::usb::vbus_detect::HardwareVbusDetect;
 use embassy_nrf::usb::{self, Driver};
 use embassy_nrf::{bind_interrupts, config, pac, peripherals, rng, uarte, wdt, Peri};
@@ -50,9 +50,12 @@ const USB_PID: u16 = 0x0001;
 /// Full-speed bulk packet size of the CDC-ACM data endpoints, bytes.
 const USB_PACKET: u16 = 64;
 
-/// Tape UART buffers, bytes. A tape line is 20 bytes; the firmware sends nothing to the tape.
-const TAPE_RX_BUFFER: usize = 256;
-const TAPE_TX_BUFFER: usize = 16;
+/// Tape UART receive buffer, bytes: 2.1 s of the tape at 9600 baud (102 lines). It must
+/// hold what the tape sends while `run` is busy writing to the host, and a host that holds
+/// DTR but has stopped reading makes each USB packet wait [`HOST_WRITE_TIMEOUT`]: one
+/// retransmission round of a full queue (32 readings, about 600 bytes = 10 packets) then
+/// takes about 1 s.
+const TAPE_RX_BUFFER: usize = 2048;
 
 type UsbDriver = Driver<'static, HardwareVbusDetect>;
 
@@ -233,19 +236,17 @@ async fn main(spawner: Spawner) {
     uart_config.baudrate = uarte::Baudrate::Baud9600;
     uart_config.parity = uarte::Parity::Excluded;
     static TAPE_RX: StaticCell<[u8; TAPE_RX_BUFFER]> = StaticCell::new();
-    static TAPE_TX: StaticCell<[u8; TAPE_TX_BUFFER]> = StaticCell::new();
-    let tape = BufferedUarte::new(
+    // Receive only: the firmware never sends to the tape, so P0.06 stays free.
+    let mut tape_rx = BufferedUarteRx::new(
         p.UARTE0,
         p.TIMER1,
         p.PPI_CH0,
         p.PPI_CH1,
         p.PPI_GROUP0,
-        p.P0_08,
-        p.P0_06,
         Irqs,
+        p.P0_08,
         uart_config,
         TAPE_RX.init([0; TAPE_RX_BUFFER]),
-        TAPE_TX.init([0; TAPE_TX_BUFFER]),
     );
 
     let driver = Driver::new(p.USBD, Irqs, HardwareVbusDetect::new(Irqs));
@@ -283,7 +284,6 @@ async fn main(spawner: Spawner) {
         open_transfer: false,
     };
     let mut host_rx = HostRx(host_rx.into_buffered(RX_PACKET.init([0; USB_PACKET as usize])));
-    let (mut tape_rx, _tape_tx) = tape.split();
 
     let clock = EmbassyClock;
     let mut device = Device::new(Config::new(device_id, boot_id), clock.now_ms());
