@@ -4,8 +4,9 @@
 //!   sequence bookkeeping); durable before anything is acknowledged.
 //! * [`link`]: the serial link to the tape firmware (handshake, acknowledgement
 //!   after commit, reconnection).
-//!
-//! The `tapeshape` binary (src/main.rs, src/cli/) is a thin layer over these.
+//! * [`cli`]: the subcommands of the `tapeshape` binary (src/main.rs is a
+//!   thin dispatcher over them).
 
+pub mod cli;
 pub mod link;
 pub mod store;

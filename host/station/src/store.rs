@@ -108,33 +108,33 @@ pub enum StoreError {
     NoDefaultDataDir,
     /// The data directory could not be created.
     #[error(
-        "cannot create data directory {path}: {source}; \
+        "cannot create data directory {path}: {error}; \
          choose another with --data-dir DIR or {DATA_DIR_ENV}"
     )]
     CreateDataDir {
         /// The directory.
         path: PathBuf,
         /// The underlying error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The data directory exists but files cannot be written in it.
     #[error(
-        "data directory {path} is not writable: {source}; \
+        "data directory {path} is not writable: {error}; \
          fix its permissions or choose another with --data-dir DIR or {DATA_DIR_ENV}"
     )]
     DataDirNotWritable {
         /// The directory.
         path: PathBuf,
         /// The underlying error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// SQLite could not open or set up the database file.
-    #[error("cannot open session database {path}: {source}")]
+    #[error("cannot open session database {path}: {error}")]
     Open {
         /// The database file.
         path: PathBuf,
         /// The underlying error.
-        source: rusqlite::Error,
+        error: rusqlite::Error,
     },
     /// The database was written by a newer tapeshape.
     #[error(
@@ -460,15 +460,15 @@ impl Store {
     /// Opens (creating if needed) the session database in `data_dir`,
     /// creating the directory and applying pending migrations.
     pub fn open(data_dir: &Path) -> Result<Store, StoreError> {
-        std::fs::create_dir_all(data_dir).map_err(|source| StoreError::CreateDataDir {
+        std::fs::create_dir_all(data_dir).map_err(|error| StoreError::CreateDataDir {
             path: data_dir.to_path_buf(),
-            source,
+            error,
         })?;
         check_writable(data_dir)?;
         let path = data_dir.join(DB_FILE_NAME);
-        let open_err = |source| StoreError::Open {
+        let open_err = |error| StoreError::Open {
             path: path.clone(),
-            source,
+            error,
         };
         let mut conn = Connection::open(&path).map_err(open_err)?;
         conn.busy_timeout(Duration::from_secs(5))
@@ -781,9 +781,9 @@ impl Store {
 /// database file".
 fn check_writable(dir: &Path) -> Result<(), StoreError> {
     let probe = dir.join(format!(".tapeshape-write-test-{}", std::process::id()));
-    let err = |source| StoreError::DataDirNotWritable {
+    let err = |error| StoreError::DataDirNotWritable {
         path: dir.to_path_buf(),
-        source,
+        error,
     };
     std::fs::write(&probe, b"").map_err(err)?;
     std::fs::remove_file(&probe).map_err(err)

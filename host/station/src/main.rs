@@ -1,0 +1,49 @@
+//! `tapeshape`: the fitting-room station's command-line program.
+//!
+//! A thin dispatcher: every subcommand lives in `tapeshape::cli::<name>`
+//! with an `Args` struct and a `run` function. To add one, add a variant to
+//! [`Command`] and a line to the `match` in `main`.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use tapeshape::cli;
+
+/// Fitting-room measurement station: tape link, session store and shape estimation.
+#[derive(Parser, Debug)]
+#[command(name = "tapeshape", version, propagate_version = true)]
+struct Cli {
+    #[command(flatten)]
+    global: cli::Global,
+
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Connect to the tape and record a session's readings (prints events line by line).
+    Station(cli::station::Args),
+    /// List the stored sessions.
+    Sessions(cli::sessions::Args),
+    /// Show, close or delete one session.
+    Session(cli::session::Args),
+}
+
+fn main() -> ExitCode {
+    let args = Cli::parse();
+    cli::init_logging(args.global.verbose);
+    let result = match args.command {
+        Command::Station(a) => cli::station::run(a, &args.global),
+        Command::Sessions(a) => cli::sessions::run(a, &args.global),
+        Command::Session(a) => cli::session::run(a, &args.global),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // `{:#}`: the error with its context chain on one line, no backtrace.
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
