@@ -111,6 +111,17 @@ struct Counters {
     reports_dropped: u32,
 }
 
+/// `t + ms`, saturating: a board clock near `u64::MAX` must not panic the firmware.
+fn after(t: u64, ms: u32) -> u64 {
+    t.saturating_add(u64::from(ms))
+}
+
+/// Whether a timer set for `t` has expired at `now`. A timer that saturated at `u64::MAX`
+/// never expires, so a clock at the end of its range cannot make a timer fire on every poll.
+fn due(now: u64, t: u64) -> bool {
+    t != u64::MAX && now >= t
+}
+
 fn bump(c: &mut u32) {
     *c = c.saturating_add(1);
 }
@@ -195,8 +206,8 @@ impl Device {
             tape_silent: false,
             queue_full: false,
             last_confirm: None,
-            next_status_ms: now_ms + u64::from(config.status_interval_ms),
-            next_hello_ms: now_ms + u64::from(config.hello_interval_ms),
+            next_status_ms: after(now_ms, config.status_interval_ms),
+            next_hello_ms: after(now_ms, config.hello_interval_ms),
             boot_ms: now_ms,
             now_ms,
             n: Counters::default(),
@@ -425,7 +436,7 @@ impl Device {
                 }
                 if popped > 0 {
                     self.send_from = self.send_from.saturating_sub(popped);
-                    self.next_retransmit_ms = now + u64::from(self.cfg.retransmit_ms);
+                    self.next_retransmit_ms = after(now, self.cfg.retransmit_ms);
                     if self.queue_full {
                         self.queue_full = false;
                         self.report(Report::Fault(Fault::QueueRecovered {
@@ -448,18 +459,18 @@ impl Device {
                 silent_ms: silent_for.min(u64::from(u32::MAX)) as u32,
             }));
         }
-        if !self.host_seen && now >= self.next_hello_ms {
-            self.next_hello_ms = now + u64::from(self.cfg.hello_interval_ms.max(1));
+        if !self.host_seen && due(now, self.next_hello_ms) {
+            self.next_hello_ms = after(now, self.cfg.hello_interval_ms.max(1));
             self.report(Report::Hello);
         }
-        if self.cfg.status_interval_ms > 0 && now >= self.next_status_ms {
-            self.next_status_ms = now + u64::from(self.cfg.status_interval_ms);
+        if self.cfg.status_interval_ms > 0 && due(now, self.next_status_ms) {
+            self.next_status_ms = after(now, self.cfg.status_interval_ms);
             self.report(Report::Status);
         }
         if self.host_seen
             && !self.queue.is_empty()
             && self.send_from >= self.queue.len()
-            && now >= self.next_retransmit_ms
+            && due(now, self.next_retransmit_ms)
         {
             self.send_from = 0;
         }
@@ -504,7 +515,7 @@ impl Device {
             if let Some(r) = self.queue.iter().nth(self.send_from).copied() {
                 self.send_from += 1;
                 if self.send_from >= self.queue.len() {
-                    self.next_retransmit_ms = now + u64::from(self.cfg.retransmit_ms);
+                    self.next_retransmit_ms = after(now, self.cfg.retransmit_ms);
                 }
                 return Some(DeviceMsg::Reading(r));
             }
@@ -512,7 +523,7 @@ impl Device {
         if let Some(live) = self.pending_live {
             let due = match self.last_live {
                 None => true,
-                Some((_, t)) => now >= t + u64::from(self.cfg.live_interval_ms),
+                Some((_, t)) => due(now, after(t, self.cfg.live_interval_ms)),
             };
             if due {
                 self.pending_live = None;
@@ -563,11 +574,11 @@ impl Device {
         if self.pending_live.is_some() {
             t = t.min(match self.last_live {
                 None => now,
-                Some((_, last)) => last + u64::from(self.cfg.live_interval_ms),
+                Some((_, last)) => after(last, self.cfg.live_interval_ms),
             });
         }
         if !self.tape_silent {
-            t = t.min(self.last_valid_line_ms + u64::from(self.cfg.tape_silent_ms));
+            t = t.min(after(self.last_valid_line_ms, self.cfg.tape_silent_ms));
         }
         if !self.host_seen {
             t = t.min(self.next_hello_ms);

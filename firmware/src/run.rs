@@ -103,13 +103,17 @@ where
             Either3::First(Ok(n)) => device.feed_tape(&tape_buf[..n], clock.now_ms()),
             Either3::First(Err(_)) => {
                 device.tape_io_error();
-                clock.sleep_until(clock.now_ms() + ERROR_PAUSE_MS).await;
+                clock
+                    .sleep_until(clock.now_ms().saturating_add(ERROR_PAUSE_MS))
+                    .await;
             }
             Either3::Second(Ok(0)) => return RunEnd::HostClosed,
             Either3::Second(Ok(n)) => device.feed_host(&host_buf[..n], clock.now_ms()),
             Either3::Second(Err(_)) => {
                 device.host_io_error();
-                clock.sleep_until(clock.now_ms() + ERROR_PAUSE_MS).await;
+                clock
+                    .sleep_until(clock.now_ms().saturating_add(ERROR_PAUSE_MS))
+                    .await;
             }
             Either3::Third(()) => {}
         }

@@ -626,6 +626,9 @@ proptest! {
                     d.feed_host(&bytes, now);
                 }
             }
+            // Drained: the next timer lies in the future, so the run loop sleeps instead of
+            // spinning.
+            assert!(d.next_deadline() > now, "deadline {} at {now}", d.next_deadline());
         };
 
         for s in &steps {
@@ -679,4 +682,19 @@ proptest! {
         let out = drain(&mut d, 2);
         prop_assert!(out.contains(&DeviceMsg::Pong { nonce }), "{:?}", out);
     }
+}
+
+#[test]
+fn a_clock_at_the_end_of_its_range_does_not_panic() {
+    let start = u64::MAX - 10;
+    let mut d = Device::new(Config::new(1, BOOT), start);
+    d.feed_host(&host_hello(), start);
+    d.feed_tape(&confirmed(1234), start + 5);
+    d.feed_tape(&live(1000), start + 5);
+    let out = drain(&mut d, u64::MAX);
+    assert_eq!(seqs(&out), [0]);
+    assert!(d.next_deadline() >= start);
+    // A clock that jumps backwards is treated as standing still.
+    let _ = drain(&mut d, 0);
+    assert_eq!(d.status(u64::MAX).uptime_ms, 10);
 }
