@@ -1,0 +1,176 @@
+//! The versioned model file (specified in `docs/model-format.md`).
+//!
+//! Layout: 8-byte magic `TSMODEL\0`, format version (u32 little-endian),
+//! body length in bytes (u64 LE), the body (postcard encoding of
+//! [`ModelFile`]'s fields), CRC-32 (IEEE) of the body (u32 LE). postcard is
+//! compact and exact for f64 (raw IEEE bits); the header lets a reader refuse
+//! a foreign or newer file with a clear message before decoding anything, and
+//! the checksum catches truncation and corruption.
+
+use std::io::Write;
+use std::path::Path;
+
+use tapeshape_mesh::Anatomy;
+
+use crate::{ModelError, Result, ShapeModel};
+
+/// The file's magic bytes.
+pub const MAGIC: [u8; 8] = *b"TSMODEL\0";
+/// The format version this build writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// The template the model was trained on: its faces and anatomy.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TemplateInfo {
+    /// Number of vertices V.
+    pub n_vertices: usize,
+    /// Triangles (counter-clockwise seen from outside), indices into the vertices.
+    pub faces: Vec<[u32; 3]>,
+    /// Landmarks and parts.
+    pub anatomy: Anatomy,
+}
+
+/// The measurement set definitions, kept as the text they were read from so
+/// that this crate does not parse them (the engine does, with tapeshape-measure).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MeasurementSetText {
+    /// Set name (e.g. `paper34`).
+    pub name: String,
+    /// Text format of `text` (e.g. `toml`).
+    pub format: String,
+    /// The definitions.
+    pub text: String,
+}
+
+/// Where a model came from.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Provenance {
+    /// Dataset file or description.
+    pub dataset: String,
+    /// Tool and version that trained it.
+    pub trained_by: String,
+    /// Creation time, RFC 3339 UTC.
+    pub created: String,
+    /// Free-form notes (settings, seeds).
+    pub notes: String,
+}
+
+/// Everything a station needs to predict: template, measurement set, model.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct ModelFile {
+    /// Provenance.
+    pub provenance: Provenance,
+    /// The template topology and anatomy.
+    pub template: TemplateInfo,
+    /// The measurement set definitions.
+    pub measurement_set: MeasurementSetText,
+    /// The learned model.
+    pub model: ShapeModel,
+}
+
+impl ModelFile {
+    /// Encodes the file into bytes (header, body, checksum).
+    pub fn to_bytes(&self) -> Result<Vec<u8>> {
+        let body = postcard::to_stdvec(self).map_err(|e| ModelError::File {
+            path: String::new(),
+            message: format!("encoding failed: {e}"),
+        })?;
+        let mut out = Vec::with_capacity(body.len() + 24);
+        out.extend_from_slice(&MAGIC);
+        out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        out.extend_from_slice(&(body.len() as u64).to_le_bytes());
+        out.extend_from_slice(&body);
+        out.extend_from_slice(&crc32fast::hash(&body).to_le_bytes());
+        Ok(out)
+    }
+
+    /// Decodes and validates a file's bytes; `path` only names the file in errors.
+    pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Self> {
+        let err = |message: String| ModelError::File {
+            path: path.to_string(),
+            message,
+        };
+        if bytes.len() < 20 || bytes[..8] != MAGIC {
+            return Err(err(
+                "not a tapeshape model file (bad magic); train one with `tapeshape train`".into(),
+            ));
+        }
+        let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+        if version != FORMAT_VERSION {
+            return Err(err(format!(
+                "format version {version}, this build reads version {FORMAT_VERSION}: use a matching tapeshape or retrain"
+            )));
+        }
+        let len = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
+        let rest = &bytes[20..];
+        if (rest.len() as u64) < len.saturating_add(4) {
+            return Err(err(format!(
+                "truncated: the header announces {len} body bytes, the file holds {}",
+                rest.len().saturating_sub(4)
+            )));
+        }
+        let len = len as usize;
+        let body = &rest[..len];
+        let crc = u32::from_le_bytes(rest[len..len + 4].try_into().expect("4 bytes"));
+        if crc != crc32fast::hash(body) {
+            return Err(err("corrupt: checksum mismatch; copy the file again".into()));
+        }
+        if rest.len() != len + 4 {
+            return Err(err("trailing bytes after the checksum".into()));
+        }
+        let file: ModelFile =
+            postcard::from_bytes(body).map_err(|e| err(format!("cannot decode the body: {e}")))?;
+        file.validate().map_err(|e| err(e.to_string()))?;
+        Ok(file)
+    }
+
+    /// Checks that template, measurement set and model agree.
+    pub fn validate(&self) -> Result<()> {
+        self.model.validate()?;
+        let v = self.model.n_vertices();
+        if self.template.n_vertices != v {
+            return Err(ModelError::InvalidInput(format!(
+                "template has {} vertices, the model {v}",
+                self.template.n_vertices
+            )));
+        }
+        if let Some(f) = self
+            .template
+            .faces
+            .iter()
+            .find(|f| f.iter().any(|&i| i as usize >= v))
+        {
+            return Err(ModelError::InvalidInput(format!(
+                "template face {f:?} refers to a vertex beyond {v}"
+            )));
+        }
+        Ok(())
+    }
+
+    /// Writes the file atomically: to `<path>.tmp`, then renamed over `path`.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let bytes = self.to_bytes()?;
+        let io = |source| ModelError::Io {
+            path: path.display().to_string(),
+            source,
+        };
+        let mut tmp_name = path.as_os_str().to_owned();
+        tmp_name.push(".tmp");
+        let tmp = std::path::PathBuf::from(tmp_name);
+        {
+            let mut f = std::fs::File::create(&tmp).map_err(io)?;
+            f.write_all(&bytes).map_err(io)?;
+            f.sync_all().map_err(io)?;
+        }
+        std::fs::rename(&tmp, path).map_err(io)
+    }
+
+    /// Reads and validates a model file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let bytes = std::fs::read(path).map_err(|source| ModelError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_bytes(&bytes, &path.display().to_string())
+    }
+}

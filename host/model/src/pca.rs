@@ -1,0 +1,299 @@
+//! PCA of registered meshes from the N x N Gram matrix.
+//!
+//! The training data are N bodies of V vertices each, stacked as columns of a
+//! 3V x N matrix (metres). Since N (hundreds) is far below 3V (tens of
+//! thousands), the principal directions come from the eigen-decomposition of
+//! the Gram matrix `G = Xc^T Xc` (N x N) of the centred data `Xc`: for
+//! `G v = lambda v`, `a = Xc v / sqrt(lambda)` is a unit principal direction and
+//! the body's weight along it is `sqrt(lambda) v[i]`. This is the thin SVD of
+//! `Xc` computed at the cost of one N x N eigen-problem and two 3V x N x N
+//! products.
+
+use nalgebra::{DMatrix, SymmetricEigen};
+
+use crate::{ModelError, Result};
+
+/// PCA of a data matrix (the learned part of [`crate::ShapeModel`]'s shape space).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct Pca {
+    /// Mean `mu`, length D (= 3V, metres, vertex-major `[x0, y0, z0, x1, ...]`).
+    pub mean: Vec<f64>,
+    /// Basis `A`, D x K, **row-major** (`basis[r * K + k]`), orthonormal columns.
+    /// Row-major keeps the K entries of one coordinate together, which is what
+    /// the sparse step-1 refinement reads.
+    pub basis: Vec<f64>,
+    /// Number of components K.
+    pub n_components: usize,
+    /// Standard deviation of the training weights along each component,
+    /// `sigma_k = sqrt(eigenvalue_k / (N - 1))`, metres; descending.
+    pub sigma: Vec<f64>,
+}
+
+/// Result of [`Pca::fit`]: the PCA and the training bodies' normalised weights.
+#[derive(Debug, Clone)]
+pub struct PcaFit {
+    /// The PCA.
+    pub pca: Pca,
+    /// Normalised weights `w = W / sigma` of the training bodies, N x K.
+    pub weights: DMatrix<f64>,
+}
+
+impl Pca {
+    /// Fits the PCA of `data` (D x N, one body per column, metres).
+    ///
+    /// Keeps the components whose eigenvalue exceeds `rel_threshold` times the
+    /// largest (at most N - 1 and at most `max_components`). Signs are fixed so
+    /// that each basis column's largest-magnitude entry is positive, which makes
+    /// the result deterministic.
+    ///
+    /// Errors if N < 2, D < 1, the data are not finite, or all bodies are equal.
+    pub fn fit(
+        data: &DMatrix<f64>,
+        rel_threshold: f64,
+        max_components: Option<usize>,
+    ) -> Result<PcaFit> {
+        let (d, n) = data.shape();
+        if n < 2 {
+            return Err(ModelError::InvalidTraining(format!(
+                "PCA needs at least 2 bodies, got {n}"
+            )));
+        }
+        if d == 0 {
+            return Err(ModelError::InvalidTraining(
+                "bodies have no vertices".into(),
+            ));
+        }
+        if data.iter().any(|x| !x.is_finite()) {
+            return Err(ModelError::NonFinite(
+                "training meshes contain NaN or infinite coordinates".into(),
+            ));
+        }
+        let mean = data.column_mean();
+        let mut centred = data.clone();
+        for mut col in centred.column_iter_mut() {
+            col -= &mean;
+        }
+        let gram = centred.tr_mul(&centred);
+        let eig = SymmetricEigen::try_new(gram, f64::EPSILON, 0).ok_or_else(|| {
+            ModelError::Numerical("eigen-decomposition of the Gram matrix did not converge".into())
+        })?;
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+        let lambda_max = eig.eigenvalues[order[0]];
+        if lambda_max <= 0.0 {
+            return Err(ModelError::InvalidTraining(
+                "all training bodies are identical: no shape variation to learn".into(),
+            ));
+        }
+        let cap = max_components.unwrap_or(usize::MAX).min(n - 1);
+        let kept: Vec<usize> = order
+            .into_iter()
+            .filter(|&i| eig.eigenvalues[i] > rel_threshold * lambda_max)
+            .take(cap)
+            .collect();
+        let k = kept.len();
+        let mut v = DMatrix::<f64>::zeros(n, k);
+        let mut lambdas = Vec::with_capacity(k);
+        for (j, &i) in kept.iter().enumerate() {
+            let mut col = eig.eigenvectors.column(i).into_owned();
+            let imax = col.iamax();
+            if col[imax] < 0.0 {
+                col.neg_mut();
+            }
+            v.set_column(j, &col);
+            lambdas.push(eig.eigenvalues[i]);
+        }
+        // A = Xc V diag(1 / sqrt(lambda)).
+        let mut a = &centred * &v;
+        for (j, mut col) in a.column_iter_mut().enumerate() {
+            col /= lambdas[j].sqrt();
+        }
+        // Sign rule on the basis itself (v's sign rule is not the same thing).
+        for j in 0..k {
+            let imax = a.column(j).iamax();
+            if a[(imax, j)] < 0.0 {
+                a.column_mut(j).neg_mut();
+                v.column_mut(j).neg_mut();
+            }
+        }
+        let sigma: Vec<f64> = lambdas
+            .iter()
+            .map(|l| (l / (n as f64 - 1.0)).sqrt())
+            .collect();
+        // Normalised weights: W = sqrt(lambda) v, w = W / sigma = sqrt(N - 1) v.
+        let weights = v * (n as f64 - 1.0).sqrt();
+        let mut basis = vec![0.0; d * k];
+        for r in 0..d {
+            for j in 0..k {
+                basis[r * k + j] = a[(r, j)];
+            }
+        }
+        Ok(PcaFit {
+            pca: Pca {
+                mean: mean.as_slice().to_vec(),
+                basis,
+                n_components: k,
+                sigma,
+            },
+            weights,
+        })
+    }
+
+    /// Dimension D (= 3V).
+    pub fn dim(&self) -> usize {
+        self.mean.len()
+    }
+
+    /// The shape `X = mu + A (sigma .* w)` for normalised weights `w` (length
+    /// K), as a flat vector of length D in metres.
+    pub fn reconstruct(&self, w: &[f64]) -> Vec<f64> {
+        let k = self.n_components;
+        assert_eq!(w.len(), k, "weights must have K entries");
+        let scaled: Vec<f64> = w.iter().zip(&self.sigma).map(|(a, b)| a * b).collect();
+        self.mean
+            .iter()
+            .enumerate()
+            .map(|(r, m)| {
+                let row = &self.basis[r * k..(r + 1) * k];
+                m + row.iter().zip(&scaled).map(|(a, b)| a * b).sum::<f64>()
+            })
+            .collect()
+    }
+
+    /// Normalised weights of a shape `x` (flat, length D, metres):
+    /// `w = A^T (x - mu) / sigma` (orthogonal projection onto the PCA space).
+    pub fn project(&self, x: &[f64]) -> Vec<f64> {
+        let k = self.n_components;
+        assert_eq!(x.len(), self.dim(), "shape must have D entries");
+        let mut w = vec![0.0; k];
+        for (r, (xr, m)) in x.iter().zip(&self.mean).enumerate() {
+            let dx = xr - m;
+            let row = &self.basis[r * k..(r + 1) * k];
+            for (wj, a) in w.iter_mut().zip(row) {
+                *wj += a * dx;
+            }
+        }
+        for (wj, s) in w.iter_mut().zip(&self.sigma) {
+            *wj /= s;
+        }
+        w
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::needless_range_loop)] // index loops compare arrays entry by entry
+mod tests {
+    use super::*;
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+    }
+
+    fn random(d: usize, n: usize, seed: u64) -> DMatrix<f64> {
+        let mut s = seed;
+        DMatrix::from_fn(d, n, |_, _| lcg(&mut s))
+    }
+
+    #[test]
+    fn reconstructs_training_data_exactly() {
+        let data = random(30, 8, 1);
+        let fit = Pca::fit(&data, 1e-12, None).unwrap();
+        assert_eq!(fit.pca.n_components, 7);
+        for i in 0..8 {
+            let w: Vec<f64> = fit.weights.row(i).iter().copied().collect();
+            let x = fit.pca.reconstruct(&w);
+            for r in 0..30 {
+                assert!((x[r] - data[(r, i)]).abs() < 1e-12, "body {i} row {r}");
+            }
+            let back = fit.pca.project(data.column(i).as_slice());
+            for (a, b) in back.iter().zip(&w) {
+                assert!((a - b).abs() < 1e-10);
+            }
+        }
+    }
+
+    #[test]
+    fn gram_pca_matches_svd_and_weights_have_unit_sd() {
+        let (d, n) = (25, 9);
+        let data = random(d, n, 7);
+        let fit = Pca::fit(&data, 1e-12, None).unwrap();
+        let k = fit.pca.n_components;
+        let mean = data.column_mean();
+        let mut c = data.clone();
+        for mut col in c.column_iter_mut() {
+            col -= &mean;
+        }
+        let svd = c.clone().svd(true, false);
+        let mut sv: Vec<(f64, usize)> = svd
+            .singular_values
+            .iter()
+            .copied()
+            .enumerate()
+            .map(|(i, s)| (s, i))
+            .collect();
+        sv.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let u = svd.u.unwrap();
+        for j in 0..k {
+            let (s, i) = sv[j];
+            let sigma = s / ((n - 1) as f64).sqrt();
+            assert!((fit.pca.sigma[j] - sigma).abs() < 1e-12 * sigma.max(1.0));
+            // Same direction up to sign.
+            let dot: f64 = (0..d).map(|r| fit.pca.basis[r * k + j] * u[(r, i)]).sum();
+            assert!(
+                (dot.abs() - 1.0).abs() < 1e-9,
+                "component {j}: |dot| = {dot}"
+            );
+        }
+        // Orthonormal columns.
+        for a in 0..k {
+            for b in 0..k {
+                let dot: f64 = (0..d)
+                    .map(|r| fit.pca.basis[r * k + a] * fit.pca.basis[r * k + b])
+                    .sum();
+                let want = if a == b { 1.0 } else { 0.0 };
+                assert!((dot - want).abs() < 1e-9);
+            }
+        }
+        // Normalised weights: zero mean, unit SD, uncorrelated.
+        for a in 0..k {
+            let col = fit.weights.column(a);
+            assert!(col.mean().abs() < 1e-12);
+            for b in 0..k {
+                let cov = col.dot(&fit.weights.column(b)) / (n - 1) as f64;
+                let want = if a == b { 1.0 } else { 0.0 };
+                assert!((cov - want).abs() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn low_rank_data_keep_only_real_components() {
+        // Data on a 2-D affine subspace: exactly 2 components survive.
+        let basis = random(20, 2, 3);
+        let coeffs = random(2, 10, 4);
+        let data = &basis * &coeffs;
+        let fit = Pca::fit(&data, 1e-10, None).unwrap();
+        assert_eq!(fit.pca.n_components, 2);
+        let capped = Pca::fit(&data, 1e-10, Some(1)).unwrap();
+        assert_eq!(capped.pca.n_components, 1);
+    }
+
+    #[test]
+    fn bad_data_are_errors() {
+        assert!(Pca::fit(&random(5, 1, 1), 1e-10, None).is_err());
+        let same = DMatrix::from_element(4, 3, 0.5);
+        assert!(matches!(
+            Pca::fit(&same, 1e-10, None),
+            Err(ModelError::InvalidTraining(_))
+        ));
+        let mut nan = random(4, 3, 2);
+        nan[(1, 1)] = f64::NAN;
+        assert!(matches!(
+            Pca::fit(&nan, 1e-10, None),
+            Err(ModelError::NonFinite(_))
+        ));
+    }
+}

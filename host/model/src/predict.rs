@@ -1,0 +1,833 @@
+//! Prediction: the paper's start, step 1 (over weights) and step 2 (over
+//! vertices), with a report of every stage.
+//!
+//! 1. **Start.** Feature analysis `w = B [P; 1]` when every measurement is
+//!    given exactly (the paper); otherwise the Gaussian conditional of the
+//!    weights on the given measurements (tolerances enter as observation
+//!    noise). Each normalised weight is clamped to `[-l, l]`.
+//! 2. **Step 1.** `s` rounds of: measure the shape (the measurer returns each
+//!    measurement's support), set per-segment targets
+//!    `l_t(e) = l_t(P) l_g(e) / l_g(P)`, minimise `E_m` over the weights with
+//!    L-BFGS; then clamp again.
+//! 3. **Step 2.** `s` rounds of the same over the vertex positions with
+//!    `(1 - lambda) E_m + lambda E_s`, `E_s` measured from the step-1 shape.
+//!
+//! The optimiser works in millimetres (see the crate docs). A measurement's
+//! energy terms are weighted by `c = (reference_tolerance / tolerance)^2`
+//! (1 for a reading without tolerance): since `(l^2 - l_t^2)^2 ~ 4 l^2 (l - l_t)^2`,
+//! this is the Gaussian log-likelihood weighting of each reading's error.
+//!
+//! Robustness: a stage that makes the given measurements fit worse (sum of
+//! weighted squared errors) is undone with a warning; a non-finite energy ends
+//! an L-BFGS run at its best point; a non-finite final mesh is an error.
+
+use std::time::{Duration, Instant};
+
+use tapeshape_measure::Measured;
+use tapeshape_mesh::{Topology, Vec3};
+
+use crate::energy::{segment_terms, SegmentTerm};
+use crate::refine::{minimise, RunInfo, StopRule, VertexObjective, WeightObjective};
+use crate::{ModelError, Result, ShapeModel, MM_PER_M};
+
+/// Error type a [`Measurer`] returns.
+pub type MeasureError = Box<dyn std::error::Error + Send + Sync>;
+
+/// Measures a mesh with a measurement set whose order matches the model's
+/// measurement names. Implemented by the engine with the real operators.
+pub trait Measurer {
+    /// Number of measurements M in the set.
+    fn n_measurements(&self) -> usize;
+
+    /// Measures the measurements `which` (indices into the set) on `vertices`
+    /// (template order, metres, station frame); returns one [`Measured`] per
+    /// index, in the order of `which`, each with its support.
+    fn measure(&self, vertices: &[Vec3], which: &[usize]) -> Result<Vec<Measured>, MeasureError>;
+}
+
+/// One measurement to fit: value and optional tolerance, metres.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Target {
+    /// Target value, metres.
+    pub value: f64,
+    /// Standard uncertainty of the reading, metres (`None`: as trusted as
+    /// [`PredictSettings::reference_tolerance`]).
+    pub tolerance: Option<f64>,
+}
+
+impl Target {
+    /// A reading trusted at the reference tolerance.
+    pub fn exact(value: f64) -> Self {
+        Self {
+            value,
+            tolerance: None,
+        }
+    }
+
+    /// A reading with a standard uncertainty `tolerance` (metres).
+    pub fn with_tolerance(value: f64, tolerance: f64) -> Self {
+        Self {
+            value,
+            tolerance: Some(tolerance),
+        }
+    }
+}
+
+/// Settings of [`ShapeModel::predict`] (the paper's parameters and stopping rules).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PredictSettings {
+    /// Clamp every normalised weight to `[-l, l]` (paper: 3 synthetic, 10 real).
+    pub l: f64,
+    /// Weight of the smoothness energy in step 2, in `[0, 1]` (paper: 0.1).
+    pub lambda: f64,
+    /// Rounds of support recomputation per step (paper: 3). 0 = start only.
+    pub s: usize,
+    /// L-BFGS stopping rules (paper: 100 iterations, gradient 1e-8, relative
+    /// change 1e8 eps).
+    pub stop: StopRule,
+    /// A reading with this tolerance (metres) gets energy weight 1 (default 1 mm).
+    pub reference_tolerance: f64,
+    /// Warn about any given measurement whose final error exceeds this (mm).
+    pub warn_error_mm: f64,
+}
+
+impl Default for PredictSettings {
+    fn default() -> Self {
+        Self {
+            l: 3.0,
+            lambda: 0.1,
+            s: 3,
+            stop: StopRule::default(),
+            reference_tolerance: 0.001,
+            warn_error_mm: 5.0,
+        }
+    }
+}
+
+/// How the start weights were found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum StartMethod {
+    /// Feature analysis `B [P; 1]` (every measurement given, no tolerances).
+    FeatureAnalysis,
+    /// Gaussian conditional of the weights on the given measurements.
+    Conditional,
+}
+
+/// One measurement through the stages (millimetres).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MeasurementReport {
+    /// Measurement name.
+    pub name: String,
+    /// Target, mm (`None` if not given).
+    pub target_mm: Option<f64>,
+    /// Tolerance given with the target, mm.
+    pub tolerance_mm: Option<f64>,
+    /// Value on the start shape, mm (given measurements only).
+    pub start_mm: Option<f64>,
+    /// Value after step 1, mm (given measurements only).
+    pub step1_mm: Option<f64>,
+    /// Value on the final mesh, mm (all measurements; `None` if measuring failed).
+    pub step2_mm: Option<f64>,
+    /// `|step2 - target|`, mm.
+    pub error_mm: Option<f64>,
+}
+
+/// Plausibility label from a chi-square quantile: below 0.95 typical, below
+/// 0.999 unusual, else implausible.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum PlausibilityLabel {
+    /// Quantile below 0.95.
+    Typical,
+    /// Quantile in [0.95, 0.999).
+    Unusual,
+    /// Quantile 0.999 or above.
+    Implausible,
+}
+
+impl PlausibilityLabel {
+    /// The label for a chi-square quantile.
+    pub fn from_quantile(q: f64) -> Self {
+        if q < 0.95 {
+            Self::Typical
+        } else if q < 0.999 {
+            Self::Unusual
+        } else {
+            Self::Implausible
+        }
+    }
+}
+
+/// How plausible the result and its inputs are.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Plausibility {
+    /// Mahalanobis distance of the step-1 weights, `|w|` (normalised weights are
+    /// independent with unit variance on the training set).
+    pub mahalanobis: f64,
+    /// Chi-square quantile of `mahalanobis^2` with K degrees of freedom
+    /// (Wilson-Hilferty approximation, about 1e-3 accurate).
+    pub quantile: f64,
+    /// Label of `quantile`.
+    pub label: PlausibilityLabel,
+    /// Mahalanobis distance of the given measurements under their training
+    /// marginal Gaussian.
+    pub measurements_mahalanobis: f64,
+    /// Its chi-square quantile (degrees of freedom = number given).
+    pub measurements_quantile: f64,
+    /// Label of `measurements_quantile`.
+    pub measurements_label: PlausibilityLabel,
+    /// RMS distance (mm) between the final mesh and its projection onto the
+    /// PCA space: how far step 2 left the learned shape space.
+    pub out_of_space_rms_mm: f64,
+    /// Largest such vertex distance, mm.
+    pub out_of_space_max_mm: f64,
+    /// Components clamped to `l` at the start.
+    pub clamped_start: Vec<usize>,
+    /// Components clamped to `l` after step 1.
+    pub clamped_step1: Vec<usize>,
+    /// Triangles whose normal turned by more than 90 degrees from the step-1 shape.
+    pub flipped_triangles: usize,
+    /// Triangles whose area fell below 1% of their step-1 area.
+    pub degenerate_triangles: usize,
+}
+
+/// Wall-clock time of each stage.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct StageTimings {
+    /// Start weights, clamping and measuring the start shape.
+    pub start: Duration,
+    /// Step 1 (all rounds, clamping, measuring the result).
+    pub step1: Duration,
+    /// Step 2 (all rounds, measuring the result, checks).
+    pub step2: Duration,
+    /// Whole prediction.
+    pub total: Duration,
+}
+
+/// The report of one prediction (everything but the mesh); serialisable to JSON.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PredictionReport {
+    /// How the start was found.
+    pub start_method: StartMethod,
+    /// Start weights after clamping (normalised).
+    pub weights_start: Vec<f64>,
+    /// Step-1 weights after clamping (normalised).
+    pub weights_step1: Vec<f64>,
+    /// Per measurement, in the model's order.
+    pub measurements: Vec<MeasurementReport>,
+    /// Plausibility of the inputs and the result.
+    pub plausibility: Plausibility,
+    /// Stage times.
+    pub timings: StageTimings,
+    /// L-BFGS runs of step 1, one per round.
+    pub step1_runs: Vec<RunInfo>,
+    /// L-BFGS runs of step 2, one per round.
+    pub step2_runs: Vec<RunInfo>,
+    /// Things the operator or engineer should know.
+    pub warnings: Vec<String>,
+    /// Settings used.
+    pub settings: PredictSettings,
+}
+
+/// A predicted body and its report.
+#[derive(Debug, Clone)]
+pub struct Prediction {
+    /// Vertex positions, template order, metres, station frame.
+    pub vertices: Vec<Vec3>,
+    /// The report.
+    pub report: PredictionReport,
+}
+
+struct Given {
+    index: usize,
+    target_mm: f64,
+    weight: f64,
+}
+
+fn to_mm(x: &[Vec3]) -> Vec<Vec3> {
+    x.iter()
+        .map(|v| [v[0] * MM_PER_M, v[1] * MM_PER_M, v[2] * MM_PER_M])
+        .collect()
+}
+
+fn to_m(x: &[Vec3]) -> Vec<Vec3> {
+    x.iter()
+        .map(|v| [v[0] / MM_PER_M, v[1] / MM_PER_M, v[2] / MM_PER_M])
+        .collect()
+}
+
+fn clamp(w: &mut [f64], l: f64) -> Vec<usize> {
+    let mut clamped = Vec::new();
+    for (k, x) in w.iter_mut().enumerate() {
+        if x.abs() > l {
+            *x = x.clamp(-l, l);
+            clamped.push(k);
+        }
+    }
+    clamped
+}
+
+/// Standard normal CDF via erfc (Abramowitz & Stegun 7.1.26, |error| < 1.5e-7;
+/// std has no erf and the plausibility label needs no more).
+fn normal_cdf(z: f64) -> f64 {
+    let x = z.abs() / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.3275911 * x);
+    let poly = t
+        * (0.254829592
+            + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027 + t * 1.061405429))));
+    let erfc = poly * (-x * x).exp();
+    if z >= 0.0 {
+        1.0 - 0.5 * erfc
+    } else {
+        0.5 * erfc
+    }
+}
+
+/// Chi-square CDF of `x` with `k` degrees of freedom, Wilson-Hilferty
+/// approximation (`(x/k)^(1/3)` is nearly normal); about 1e-3 accurate, enough
+/// for a three-way plausibility label.
+pub fn chi2_quantile(x: f64, k: usize) -> f64 {
+    if k == 0 {
+        return 0.0;
+    }
+    if x <= 0.0 {
+        return 0.0;
+    }
+    let k = k as f64;
+    let v = 2.0 / (9.0 * k);
+    normal_cdf(((x / k).cbrt() - (1.0 - v)) / v.sqrt())
+}
+
+impl ShapeModel {
+    fn check_targets(
+        &self,
+        targets: &[Option<Target>],
+        settings: &PredictSettings,
+    ) -> Result<Vec<Given>> {
+        let m = self.n_measurements();
+        if targets.len() != m {
+            return Err(ModelError::InvalidInput(format!(
+                "{} targets given, the model has {m} measurements ({})",
+                targets.len(),
+                self.measurement_names.join(", ")
+            )));
+        }
+        if !(settings.l.is_finite() && settings.l > 0.0) {
+            return Err(ModelError::InvalidInput(format!(
+                "l must be positive, got {}",
+                settings.l
+            )));
+        }
+        if !(0.0..=1.0).contains(&settings.lambda) {
+            return Err(ModelError::InvalidInput(format!(
+                "lambda must lie in [0, 1], got {}",
+                settings.lambda
+            )));
+        }
+        if !(settings.reference_tolerance.is_finite() && settings.reference_tolerance > 0.0) {
+            return Err(ModelError::InvalidInput(
+                "reference_tolerance must be positive (metres)".into(),
+            ));
+        }
+        let mut given = Vec::new();
+        for (j, t) in targets.iter().enumerate() {
+            let Some(t) = t else { continue };
+            let name = &self.measurement_names[j];
+            if !(t.value.is_finite() && t.value > 0.0) {
+                return Err(ModelError::InvalidInput(format!(
+                    "target '{name}' is {}: a length in metres must be positive and finite",
+                    t.value
+                )));
+            }
+            if t.value > 5.0 {
+                return Err(ModelError::InvalidInput(format!(
+                    "target '{name}' is {} m, more than any body length: targets are metres (was it given in mm or cm?)",
+                    t.value
+                )));
+            }
+            let weight = match t.tolerance {
+                None => 1.0,
+                Some(tol) if tol.is_finite() && tol > 0.0 => {
+                    (settings.reference_tolerance / tol).powi(2)
+                }
+                Some(tol) => {
+                    return Err(ModelError::InvalidInput(format!(
+                        "tolerance of '{name}' is {tol}: it must be positive and finite (metres)"
+                    )))
+                }
+            };
+            given.push(Given {
+                index: j,
+                target_mm: t.value * MM_PER_M,
+                weight,
+            });
+        }
+        if given.is_empty() {
+            return Err(ModelError::InvalidInput(
+                "no measurements given: at least one target is needed to predict a body".into(),
+            ));
+        }
+        Ok(given)
+    }
+
+    fn measure_checked(
+        &self,
+        measurer: &dyn Measurer,
+        x: &[Vec3],
+        which: &[usize],
+    ) -> Result<Vec<Measured>> {
+        let out = measurer
+            .measure(x, which)
+            .map_err(|e| ModelError::Measure(e.to_string()))?;
+        if out.len() != which.len() {
+            return Err(ModelError::Measure(format!(
+                "asked for {} measurements, got {}",
+                which.len(),
+                out.len()
+            )));
+        }
+        let v = x.len() as u32;
+        for (m, &j) in out.iter().zip(which) {
+            let name = &self.measurement_names[j];
+            let s = &m.support;
+            let bad_point = s
+                .points
+                .iter()
+                .any(|p| p.a >= v || p.b >= v || !(0.0..=1.0).contains(&p.t));
+            let bad_seg = s
+                .segments
+                .iter()
+                .any(|g| g[0] as usize >= s.points.len() || g[1] as usize >= s.points.len());
+            let bad_axis = s.axis.is_some_and(|n| n.iter().any(|c| !c.is_finite()));
+            if bad_point || bad_seg || bad_axis || !m.value.is_finite() {
+                return Err(ModelError::Measure(format!(
+                    "measurement '{name}' returned an invalid support or value"
+                )));
+            }
+        }
+        Ok(out)
+    }
+
+    fn build_terms(
+        &self,
+        given: &[Given],
+        measured: &[Measured],
+        x_mm: &[Vec3],
+        warnings: &mut Vec<String>,
+        stage: &str,
+    ) -> Vec<SegmentTerm> {
+        let mut terms = Vec::new();
+        for (g, m) in given.iter().zip(measured) {
+            match segment_terms(&m.support, x_mm, g.target_mm, g.weight) {
+                Some(t) => terms.extend(t),
+                None => warnings.push(format!(
+                    "{stage}: measurement '{}' has zero length on the current shape and was left out of this round",
+                    self.measurement_names[g.index]
+                )),
+            }
+        }
+        terms
+    }
+
+    fn weighted_sq_error(given: &[Given], measured: &[Measured]) -> f64 {
+        given
+            .iter()
+            .zip(measured)
+            .map(|(g, m)| g.weight * (m.value * MM_PER_M - g.target_mm).powi(2))
+            .sum()
+    }
+
+    /// Step-1 objective over the vertices the terms touch.
+    fn localise(&self, terms: &[SegmentTerm]) -> WeightObjective {
+        let k = self.pca.n_components;
+        let mut local = vec![u32::MAX; self.n_vertices()];
+        let mut globals: Vec<u32> = Vec::new();
+        let mut map = |v: u32| -> u32 {
+            if local[v as usize] == u32::MAX {
+                local[v as usize] = globals.len() as u32;
+                globals.push(v);
+            }
+            local[v as usize]
+        };
+        let mut local_terms = terms.to_vec();
+        for t in &mut local_terms {
+            for p in [&mut t.p0, &mut t.p1] {
+                p.a = map(p.a);
+                p.b = map(p.b);
+            }
+        }
+        let mut rows = Vec::with_capacity(globals.len() * 3 * k);
+        let mut base = Vec::with_capacity(globals.len());
+        for &g in &globals {
+            let g = g as usize;
+            for c in 0..3 {
+                let r = 3 * g + c;
+                rows.extend(
+                    self.pca.basis[r * k..(r + 1) * k]
+                        .iter()
+                        .zip(&self.pca.sigma)
+                        .map(|(a, s)| a * s * MM_PER_M),
+                );
+            }
+            base.push([
+                self.pca.mean[3 * g] * MM_PER_M,
+                self.pca.mean[3 * g + 1] * MM_PER_M,
+                self.pca.mean[3 * g + 2] * MM_PER_M,
+            ]);
+        }
+        WeightObjective {
+            k,
+            rows,
+            base,
+            terms: local_terms,
+        }
+    }
+
+    fn measurement_mahalanobis(&self, given: &[Given]) -> Result<f64> {
+        let idx: Vec<usize> = given.iter().map(|g| g.index).collect();
+        let val: Vec<f64> = given.iter().map(|g| g.target_mm / MM_PER_M).collect();
+        self.joint.mahalanobis(&idx, &val)
+    }
+
+    /// Estimates a body from `targets` (one entry per model measurement, `None`
+    /// where not given; metres) with the paper's method.
+    ///
+    /// `measurer` measures meshes with the model's measurement set (same order);
+    /// `topology` is the template's (V vertices). Returns the mesh (metres,
+    /// station frame) and a report of every stage.
+    ///
+    /// Errors on bad input (wrong counts, non-positive or non-finite targets,
+    /// targets that look like millimetres, no target at all), on a measurer
+    /// failure, and if the result is not finite. An implausible but possible
+    /// set of measurements gives a result with warnings and its plausibility.
+    pub fn predict(
+        &self,
+        targets: &[Option<Target>],
+        measurer: &dyn Measurer,
+        topology: &Topology,
+        settings: &PredictSettings,
+    ) -> Result<Prediction> {
+        let t_total = Instant::now();
+        let v = self.n_vertices();
+        if topology.n_vertices() != v {
+            return Err(ModelError::InvalidInput(format!(
+                "topology has {} vertices, the model {v}",
+                topology.n_vertices()
+            )));
+        }
+        if measurer.n_measurements() != self.n_measurements() {
+            return Err(ModelError::InvalidInput(format!(
+                "the measurer has {} measurements, the model {}: use the set the model was trained with",
+                measurer.n_measurements(),
+                self.n_measurements()
+            )));
+        }
+        let given = self.check_targets(targets, settings)?;
+        let which: Vec<usize> = given.iter().map(|g| g.index).collect();
+        let mut warnings = Vec::new();
+
+        // Start.
+        let t0 = Instant::now();
+        let start_method = if given.len() == self.n_measurements()
+            && given
+                .iter()
+                .all(|g| targets[g.index].is_some_and(|t| t.tolerance.is_none()))
+        {
+            StartMethod::FeatureAnalysis
+        } else {
+            StartMethod::Conditional
+        };
+        let observed: Vec<(usize, f64, f64)> = given
+            .iter()
+            .map(|g| {
+                let tol = match start_method {
+                    StartMethod::FeatureAnalysis => 0.0,
+                    StartMethod::Conditional => {
+                        targets[g.index].and_then(|t| t.tolerance).unwrap_or(0.0)
+                    }
+                };
+                (g.index, g.target_mm / MM_PER_M, tol)
+            })
+            .collect();
+        let mut w_start = self.start_weights(&observed)?;
+        if w_start.iter().any(|x| !x.is_finite()) {
+            return Err(ModelError::NonFinite("start weights".into()));
+        }
+        let clamped_start = clamp(&mut w_start, settings.l);
+        let x_start = self.shape(&w_start);
+        let meas_start = self.measure_checked(measurer, &x_start, &which)?;
+        let time_start = t0.elapsed();
+
+        // Step 1: over the weights.
+        let t1 = Instant::now();
+        let mut step1_runs = Vec::new();
+        let mut w = w_start.clone();
+        for round in 0..settings.s {
+            let (x, meas);
+            let (x_ref, meas_ref) = if round == 0 {
+                (&x_start, &meas_start)
+            } else {
+                x = self.shape(&w);
+                meas = self.measure_checked(measurer, &x, &which)?;
+                (&x, &meas)
+            };
+            let terms = self.build_terms(&given, meas_ref, &to_mm(x_ref), &mut warnings, "step 1");
+            if terms.is_empty() {
+                break;
+            }
+            let obj = self.localise(&terms);
+            match minimise(&obj, w.clone(), &settings.stop) {
+                Ok((w_new, info)) => {
+                    w = w_new;
+                    step1_runs.push(info);
+                }
+                Err(e) => {
+                    warnings.push(format!("step 1 round {round}: optimiser stopped: {e}"));
+                    break;
+                }
+            }
+        }
+        let clamped_step1 = clamp(&mut w, settings.l);
+        let mut x1 = self.shape(&w);
+        let mut meas1 = self.measure_checked(measurer, &x1, &which)?;
+        let (err_start, err1) = (
+            Self::weighted_sq_error(&given, &meas_start),
+            Self::weighted_sq_error(&given, &meas1),
+        );
+        if err1 > err_start || err1.is_nan() {
+            warnings.push(format!(
+                "step 1 fitted the measurements worse than the start (weighted squared error {err1:.3} vs {err_start:.3} mm^2): kept the start shape"
+            ));
+            w = w_start.clone();
+            x1 = x_start.clone();
+            meas1 = meas_start.clone();
+        }
+        let w_step1 = w;
+        let time_step1 = t1.elapsed();
+
+        // Step 2: over the vertices.
+        let t2 = Instant::now();
+        let mut step2_runs = Vec::new();
+        let reference_mm = to_mm(&x1);
+        let mut x_mm: Vec<f64> = reference_mm.as_flattened().to_vec();
+        for round in 0..settings.s {
+            let p_mm: Vec<Vec3> = x_mm.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            let meas;
+            let meas_ref = if round == 0 {
+                &meas1
+            } else {
+                meas = self.measure_checked(measurer, &to_m(&p_mm), &which)?;
+                &meas
+            };
+            let terms = self.build_terms(&given, meas_ref, &p_mm, &mut warnings, "step 2");
+            if terms.is_empty() {
+                break;
+            }
+            let obj = VertexObjective {
+                terms,
+                edges: topology.edges(),
+                reference: &reference_mm,
+                lambda: settings.lambda,
+            };
+            match minimise(&obj, x_mm.clone(), &settings.stop) {
+                Ok((x_new, info)) => {
+                    x_mm = x_new;
+                    step2_runs.push(info);
+                }
+                Err(e) => {
+                    warnings.push(format!("step 2 round {round}: optimiser stopped: {e}"));
+                    break;
+                }
+            }
+        }
+        let mut x2: Vec<Vec3> = x_mm
+            .chunks_exact(3)
+            .map(|c| [c[0] / MM_PER_M, c[1] / MM_PER_M, c[2] / MM_PER_M])
+            .collect();
+        if x2.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(ModelError::NonFinite(
+                "step 2 produced a non-finite mesh".into(),
+            ));
+        }
+        let mut meas2 = self.measure_checked(measurer, &x2, &which)?;
+        let err2 = Self::weighted_sq_error(&given, &meas2);
+        let err1 = Self::weighted_sq_error(&given, &meas1);
+        if err2 > err1 || err2.is_nan() {
+            warnings.push(format!(
+                "step 2 fitted the measurements worse than step 1 (weighted squared error {err2:.3} vs {err1:.3} mm^2): kept the step-1 shape"
+            ));
+            x2 = x1.clone();
+            meas2 = meas1.clone();
+        }
+
+        // Report.
+        let (flipped, degenerate) = triangle_changes(topology, &x1, &x2);
+        if flipped > 0 || degenerate > 0 {
+            warnings.push(format!(
+                "step 2 flipped {flipped} and collapsed {degenerate} triangles: the measurements may be inconsistent"
+            ));
+        }
+        let back = self.shape(&self.pca.project(x2.as_flattened()));
+        let mut sum2 = 0.0;
+        let mut max_d = 0.0f64;
+        for (a, b) in x2.iter().zip(&back) {
+            let d2 = (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>();
+            sum2 += d2;
+            max_d = max_d.max(d2.sqrt());
+        }
+        let k = self.n_components();
+        let mahalanobis = w_step1.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let quantile = chi2_quantile(mahalanobis * mahalanobis, k);
+        let meas_maha = self.measurement_mahalanobis(&given)?;
+        let meas_q = chi2_quantile(meas_maha * meas_maha, given.len());
+        let meas_label =
+            PlausibilityLabel::from_quantile(if meas_q.is_finite() { meas_q } else { 1.0 });
+        if meas_label == PlausibilityLabel::Implausible {
+            warnings.push(format!(
+                "the measurements are far from the training population (Mahalanobis distance {meas_maha:.1} over {} measurements): the shape is held to {} SD and may not fit them all",
+                given.len(),
+                settings.l
+            ));
+        }
+        let plausibility = Plausibility {
+            mahalanobis,
+            quantile,
+            label: PlausibilityLabel::from_quantile(quantile),
+            measurements_mahalanobis: meas_maha,
+            measurements_quantile: meas_q,
+            measurements_label: meas_label,
+            out_of_space_rms_mm: (sum2 / v as f64).sqrt() * MM_PER_M,
+            out_of_space_max_mm: max_d * MM_PER_M,
+            clamped_start,
+            clamped_step1,
+            flipped_triangles: flipped,
+            degenerate_triangles: degenerate,
+        };
+        let mut reports: Vec<MeasurementReport> = self
+            .measurement_names
+            .iter()
+            .enumerate()
+            .map(|(j, name)| MeasurementReport {
+                name: name.clone(),
+                target_mm: targets[j].map(|t| t.value * MM_PER_M),
+                tolerance_mm: targets[j].and_then(|t| t.tolerance).map(|t| t * MM_PER_M),
+                start_mm: None,
+                step1_mm: None,
+                step2_mm: None,
+                error_mm: None,
+            })
+            .collect();
+        for (i, g) in given.iter().enumerate() {
+            let r = &mut reports[g.index];
+            r.start_mm = Some(meas_start[i].value * MM_PER_M);
+            r.step1_mm = Some(meas1[i].value * MM_PER_M);
+            let v2 = meas2[i].value * MM_PER_M;
+            r.step2_mm = Some(v2);
+            let err = (v2 - g.target_mm).abs();
+            r.error_mm = Some(err);
+            if err > settings.warn_error_mm {
+                warnings.push(format!(
+                    "'{}' could not be fitted within {} mm (error {err:.1} mm)",
+                    r.name, settings.warn_error_mm
+                ));
+            }
+        }
+        let missing: Vec<usize> = (0..self.n_measurements())
+            .filter(|j| targets[*j].is_none())
+            .collect();
+        if !missing.is_empty() {
+            match self.measure_checked(measurer, &x2, &missing) {
+                Ok(ms) => {
+                    for (m, &j) in ms.iter().zip(&missing) {
+                        reports[j].step2_mm = Some(m.value * MM_PER_M);
+                    }
+                }
+                Err(e) => {
+                    warnings.push(format!("measuring the measurements not given failed: {e}"))
+                }
+            }
+        }
+        let time_step2 = t2.elapsed();
+        Ok(Prediction {
+            vertices: x2,
+            report: PredictionReport {
+                start_method,
+                weights_start: w_start,
+                weights_step1: w_step1,
+                measurements: reports,
+                plausibility,
+                timings: StageTimings {
+                    start: time_start,
+                    step1: time_step1,
+                    step2: time_step2,
+                    total: t_total.elapsed(),
+                },
+                step1_runs,
+                step2_runs,
+                warnings,
+                settings: settings.clone(),
+            },
+        })
+    }
+}
+
+/// Counts triangles of `after` whose normal turned by more than 90 degrees
+/// from `before` (flipped) or whose area fell below 1% of it (degenerate).
+pub fn triangle_changes(topology: &Topology, before: &[Vec3], after: &[Vec3]) -> (usize, usize) {
+    let normal = |p: &[Vec3], f: &[u32; 3]| {
+        let (a, b, c) = (p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]);
+        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let w = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        [
+            u[1] * w[2] - u[2] * w[1],
+            u[2] * w[0] - u[0] * w[2],
+            u[0] * w[1] - u[1] * w[0],
+        ]
+    };
+    let (mut flipped, mut degenerate) = (0, 0);
+    for f in topology.faces() {
+        let (n0, n1) = (normal(before, f), normal(after, f));
+        let dot = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
+        let (a0, a1) = (
+            (n0[0] * n0[0] + n0[1] * n0[1] + n0[2] * n0[2]).sqrt(),
+            (n1[0] * n1[0] + n1[1] * n1[1] + n1[2] * n1[2]).sqrt(),
+        );
+        if dot < 0.0 {
+            flipped += 1;
+        } else if a1 < 0.01 * a0 {
+            degenerate += 1;
+        }
+    }
+    (flipped, degenerate)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_quantile_is_close_to_known_values() {
+        // chi2(0.95, 10) = 18.307, chi2(0.999, 30) = 59.703, chi2(0.5, 50) = 49.335.
+        assert!((chi2_quantile(18.307, 10) - 0.95).abs() < 2e-3);
+        assert!((chi2_quantile(59.703, 30) - 0.999).abs() < 1e-3);
+        assert!((chi2_quantile(49.335, 50) - 0.5).abs() < 2e-3);
+        assert_eq!(
+            PlausibilityLabel::from_quantile(0.5),
+            PlausibilityLabel::Typical
+        );
+        assert_eq!(
+            PlausibilityLabel::from_quantile(0.99),
+            PlausibilityLabel::Unusual
+        );
+        assert_eq!(
+            PlausibilityLabel::from_quantile(0.9999),
+            PlausibilityLabel::Implausible
+        );
+    }
+
+    #[test]
+    fn clamp_reports_components() {
+        let mut w = vec![0.5, -4.0, 3.5, 3.0];
+        assert_eq!(clamp(&mut w, 3.0), vec![1, 2]);
+        assert_eq!(w, vec![0.5, -3.0, 3.0, 3.0]);
+    }
+}

@@ -1,0 +1,477 @@
+//! L-BFGS with the paper's stopping rules, and the two refinement objectives.
+//!
+//! The solver is argmin's [`LBFGS`] with the More-Thuente line search. Its own
+//! cost criterion is an *absolute* change (`|f_prev - f| < tol`), while the
+//! paper stops on a *relative* change below `1e8` times machine epsilon, so
+//! [`PaperStop`] wraps the solver and replaces its termination test with the
+//! paper's three rules: relative energy change below `rel_cost_tol`, gradient
+//! norm below `grad_tol`, or `max_iters` iterations.
+//!
+//! argmin asks for the cost and the gradient in separate calls; both
+//! objectives compute them together, so [`Adapter`] caches the last point.
+
+use std::cell::{Cell, RefCell};
+
+use argmin::core::{
+    CostFunction, Error as ArgminError, Executor, Gradient, IterState, Problem, Solver, State,
+    TerminationReason, TerminationStatus, KV,
+};
+use argmin::solver::linesearch::MoreThuenteLineSearch;
+use argmin::solver::quasinewton::LBFGS;
+use tapeshape_mesh::Vec3;
+
+use crate::energy::{measurement_energy, smoothness_energy, SegmentTerm};
+
+/// Stopping rules and memory of one L-BFGS run.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StopRule {
+    /// At most this many iterations (paper: 100).
+    pub max_iters: u64,
+    /// Stop when the gradient's Euclidean norm is below this (paper: 1e-8;
+    /// energies in mm^4, gradients per mm or per normalised weight).
+    pub grad_tol: f64,
+    /// Stop when `|f_prev - f| <= rel_cost_tol * max(|f_prev|, |f|)`
+    /// (paper: `1e8 * f64::EPSILON`, about 2.2e-8).
+    pub rel_cost_tol: f64,
+    /// Number of correction pairs L-BFGS keeps.
+    pub history: usize,
+}
+
+impl Default for StopRule {
+    fn default() -> Self {
+        Self {
+            max_iters: 100,
+            grad_tol: 1e-8,
+            rel_cost_tol: 1e8 * f64::EPSILON,
+            history: 7,
+        }
+    }
+}
+
+/// What one L-BFGS run did.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RunInfo {
+    /// Iterations performed.
+    pub iterations: u64,
+    /// Objective evaluations (cost and gradient together).
+    pub evaluations: u64,
+    /// Energy at the start point.
+    pub cost_start: f64,
+    /// Energy at the returned point.
+    pub cost_end: f64,
+    /// Why it stopped.
+    pub reason: String,
+}
+
+/// A smooth objective: returns `f(x)` and writes `df/dx` into `grad`.
+pub trait Objective {
+    /// Evaluates the objective at `x`; `grad` has the length of `x`.
+    fn eval(&self, x: &[f64], grad: &mut [f64]) -> f64;
+}
+
+struct Cache {
+    x: Vec<f64>,
+    f: f64,
+    g: Vec<f64>,
+}
+
+/// argmin problem over an [`Objective`], caching the last evaluation.
+pub struct Adapter<'a> {
+    obj: &'a dyn Objective,
+    cache: RefCell<Option<Cache>>,
+    // Outside the adapter: argmin's L-BFGS drops the problem when a line
+    // search fails, and the count must survive that.
+    evaluations: &'a Cell<u64>,
+}
+
+impl Adapter<'_> {
+    fn eval(&self, x: &[f64]) -> Result<(f64, Vec<f64>), ArgminError> {
+        if let Some(c) = self.cache.borrow().as_ref() {
+            if c.x == x {
+                return Ok((c.f, c.g.clone()));
+            }
+        }
+        let mut g = vec![0.0; x.len()];
+        let f = self.obj.eval(x, &mut g);
+        self.evaluations.set(self.evaluations.get() + 1);
+        if !f.is_finite() || g.iter().any(|v| !v.is_finite()) {
+            return Err(ArgminError::msg("energy or gradient is not finite"));
+        }
+        *self.cache.borrow_mut() = Some(Cache {
+            x: x.to_vec(),
+            f,
+            g: g.clone(),
+        });
+        Ok((f, g))
+    }
+}
+
+impl CostFunction for Adapter<'_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, x: &Vec<f64>) -> Result<f64, ArgminError> {
+        Ok(self.eval(x)?.0)
+    }
+}
+
+impl Gradient for Adapter<'_> {
+    type Param = Vec<f64>;
+    type Gradient = Vec<f64>;
+    fn gradient(&self, x: &Vec<f64>) -> Result<Vec<f64>, ArgminError> {
+        Ok(self.eval(x)?.1)
+    }
+}
+
+/// Wraps a solver and applies the paper's stopping rules (see the module docs).
+pub struct PaperStop<S> {
+    inner: S,
+    grad_tol: f64,
+    rel_cost_tol: f64,
+}
+
+type St = IterState<Vec<f64>, Vec<f64>, (), (), (), f64>;
+
+impl<O, S: Solver<O, St>> Solver<O, St> for PaperStop<S> {
+    fn name(&self) -> &str {
+        "L-BFGS (paper stopping rules)"
+    }
+    fn init(
+        &mut self,
+        problem: &mut Problem<O>,
+        state: St,
+    ) -> Result<(St, Option<KV>), ArgminError> {
+        self.inner.init(problem, state)
+    }
+    fn next_iter(
+        &mut self,
+        problem: &mut Problem<O>,
+        state: St,
+    ) -> Result<(St, Option<KV>), ArgminError> {
+        self.inner.next_iter(problem, state)
+    }
+    fn terminate(&mut self, state: &St) -> TerminationStatus {
+        if let Some(g) = state.get_gradient() {
+            if g.iter().map(|v| v * v).sum::<f64>().sqrt() < self.grad_tol {
+                return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+            }
+        }
+        let (prev, cur) = (state.get_prev_cost(), state.get_cost());
+        if prev.is_finite()
+            && cur.is_finite()
+            && (prev - cur).abs() <= self.rel_cost_tol * prev.abs().max(cur.abs())
+        {
+            return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+        }
+        TerminationStatus::NotTerminated
+    }
+}
+
+/// Minimises `obj` from `x0` with L-BFGS and the paper's stopping rules.
+///
+/// Returns the best point seen and what the run did. Errors (as text) if the
+/// objective is not finite at `x0`. A failed line search (including a
+/// non-finite energy along the search direction) ends the run at the best
+/// point so far, with the reason recorded.
+pub fn minimise(
+    obj: &dyn Objective,
+    x0: Vec<f64>,
+    stop: &StopRule,
+) -> Result<(Vec<f64>, RunInfo), String> {
+    let evaluations = Cell::new(0);
+    let adapter = Adapter {
+        obj,
+        cache: RefCell::new(None),
+        evaluations: &evaluations,
+    };
+    let (f0, _) = adapter
+        .eval(&x0)
+        .map_err(|e| format!("at the start point: {e}"))?;
+    if x0.is_empty() {
+        return Ok((
+            x0,
+            RunInfo {
+                iterations: 0,
+                evaluations: 1,
+                cost_start: f0,
+                cost_end: f0,
+                reason: "no variables".into(),
+            },
+        ));
+    }
+    let linesearch = MoreThuenteLineSearch::new();
+    let lbfgs: LBFGS<_, Vec<f64>, Vec<f64>, f64> = LBFGS::new(linesearch, stop.history.max(1));
+    let solver = PaperStop {
+        inner: lbfgs,
+        grad_tol: stop.grad_tol,
+        rel_cost_tol: stop.rel_cost_tol,
+    };
+    let x_start = x0.clone();
+    let res = Executor::new(adapter, solver)
+        .configure(|s| s.param(x0).max_iters(stop.max_iters))
+        .timer(false)
+        .run()
+        .map_err(|e| e.to_string())?;
+    let mut state = res.state;
+    let iterations = state.get_iter();
+    let reason = state
+        .get_termination_reason()
+        .map_or_else(|| "not terminated".to_string(), |r| r.text().to_string());
+    let best_cost = state.get_best_cost();
+    let evaluations = evaluations.get();
+    let (x, cost_end) = match state.take_best_param() {
+        Some(x) if best_cost.is_finite() && best_cost <= f0 => (x, best_cost),
+        _ => (x_start, f0),
+    };
+    Ok((
+        x,
+        RunInfo {
+            iterations,
+            evaluations,
+            cost_start: f0,
+            cost_end,
+            reason,
+        },
+    ))
+}
+
+/// Step 1: `E_m` as a function of the normalised weights `w` (length K).
+///
+/// Only the vertices the supports touch are evaluated: `x_local = base + R w`
+/// where `R` holds their rows of `1000 * A diag(sigma)` (mm per unit weight)
+/// and `base` their mean position (mm). The gradient is `R^T dE/dx_local`, the
+/// chain rule through the PCA basis. Cost per evaluation: O(3 n_local K).
+pub struct WeightObjective {
+    /// Number of weights K.
+    pub k: usize,
+    /// Rows of the scaled basis for the local vertices, (3 n_local) x K, row-major, mm.
+    pub rows: Vec<f64>,
+    /// Mean positions of the local vertices, mm.
+    pub base: Vec<Vec3>,
+    /// Measurement terms over local vertex indices (mm).
+    pub terms: Vec<SegmentTerm>,
+}
+
+impl WeightObjective {
+    /// Local positions (mm) for weights `w`.
+    pub fn positions(&self, w: &[f64]) -> Vec<Vec3> {
+        let k = self.k;
+        let mut p = self.base.clone();
+        for (v, pv) in p.iter_mut().enumerate() {
+            for (c, pc) in pv.iter_mut().enumerate() {
+                let row = &self.rows[(3 * v + c) * k..(3 * v + c + 1) * k];
+                *pc += row.iter().zip(w).map(|(a, b)| a * b).sum::<f64>();
+            }
+        }
+        p
+    }
+}
+
+impl Objective for WeightObjective {
+    fn eval(&self, w: &[f64], grad: &mut [f64]) -> f64 {
+        let p = self.positions(w);
+        let mut gp = vec![[0.0; 3]; p.len()];
+        let e = measurement_energy(&self.terms, &p, Some(&mut gp));
+        grad.iter_mut().for_each(|g| *g = 0.0);
+        let k = self.k;
+        for (v, gv) in gp.iter().enumerate() {
+            for (c, &gc) in gv.iter().enumerate() {
+                if gc != 0.0 {
+                    let row = &self.rows[(3 * v + c) * k..(3 * v + c + 1) * k];
+                    for (g, a) in grad.iter_mut().zip(row) {
+                        *g += a * gc;
+                    }
+                }
+            }
+        }
+        e
+    }
+}
+
+/// Step 2: `(1 - lambda) E_m + lambda E_s` over all vertex positions (flat,
+/// 3V, mm), `E_s` measured from the step-1 shape `reference` (mm).
+pub struct VertexObjective<'a> {
+    /// Measurement terms over mesh vertex indices.
+    pub terms: Vec<SegmentTerm>,
+    /// Undirected edges of the template.
+    pub edges: &'a [[u32; 2]],
+    /// The step-1 shape, mm.
+    pub reference: &'a [Vec3],
+    /// Smoothness weight lambda in [0, 1].
+    pub lambda: f64,
+}
+
+impl Objective for VertexObjective<'_> {
+    fn eval(&self, x: &[f64], grad: &mut [f64]) -> f64 {
+        let p: Vec<Vec3> = x.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let mut gm = vec![[0.0; 3]; p.len()];
+        let em = measurement_energy(&self.terms, &p, Some(&mut gm));
+        for g in gm.iter_mut().flat_map(|v| v.iter_mut()) {
+            *g *= 1.0 - self.lambda;
+        }
+        let es = smoothness_energy(self.edges, &p, self.reference, Some((&mut gm, self.lambda)));
+        grad.copy_from_slice(gm.as_flattened());
+        (1.0 - self.lambda) * em + self.lambda * es
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::energy::tests::lcg;
+    use tapeshape_measure::SupportPoint;
+
+    struct Rosenbrock;
+    impl Objective for Rosenbrock {
+        fn eval(&self, x: &[f64], g: &mut [f64]) -> f64 {
+            let (a, b) = (x[0], x[1]);
+            g[0] = -2.0 * (1.0 - a) - 400.0 * a * (b - a * a);
+            g[1] = 200.0 * (b - a * a);
+            (1.0 - a).powi(2) + 100.0 * (b - a * a).powi(2)
+        }
+    }
+
+    #[test]
+    fn lbfgs_with_paper_rules_solves_rosenbrock() {
+        let (x, info) = minimise(&Rosenbrock, vec![-1.2, 1.0], &StopRule::default()).unwrap();
+        assert!(
+            (x[0] - 1.0).abs() < 1e-5 && (x[1] - 1.0).abs() < 1e-5,
+            "{x:?} {info:?}"
+        );
+        assert!(info.iterations <= 100);
+        assert!(info.cost_end < 1e-10);
+    }
+
+    #[test]
+    fn iteration_cap_is_respected() {
+        let stop = StopRule {
+            max_iters: 3,
+            ..StopRule::default()
+        };
+        let (_, info) = minimise(&Rosenbrock, vec![-1.2, 1.0], &stop).unwrap();
+        assert_eq!(info.iterations, 3);
+    }
+
+    struct NanAt;
+    impl Objective for NanAt {
+        fn eval(&self, x: &[f64], g: &mut [f64]) -> f64 {
+            g[0] = 2.0 * x[0];
+            if x[0] < 0.5 {
+                f64::NAN
+            } else {
+                x[0] * x[0]
+            }
+        }
+    }
+
+    #[test]
+    fn non_finite_energy_never_becomes_the_result() {
+        let (x, info) = minimise(&NanAt, vec![3.0], &StopRule::default()).unwrap();
+        assert!(x[0].is_finite() && x[0] >= 0.5, "{x:?} {info:?}");
+        assert!(info.cost_end <= 9.0);
+        assert!(minimise(&NanAt, vec![0.0], &StopRule::default()).is_err());
+    }
+
+    /// The step-1 gradient (chain rule through the basis) against finite differences.
+    #[test]
+    fn weight_objective_gradient() {
+        let mut s = 17;
+        let (nl, k) = (4, 3);
+        let rows: Vec<f64> = (0..3 * nl * k).map(|_| 10.0 * lcg(&mut s)).collect();
+        let base: Vec<Vec3> = (0..nl)
+            .map(|_| {
+                [
+                    100.0 * lcg(&mut s),
+                    100.0 * lcg(&mut s),
+                    100.0 * lcg(&mut s),
+                ]
+            })
+            .collect();
+        let terms = vec![
+            SegmentTerm {
+                p0: SupportPoint::vertex(0),
+                p1: SupportPoint { a: 1, b: 2, t: 0.3 },
+                axis: None,
+                target_sq: 900.0,
+                weight: 1.0,
+            },
+            SegmentTerm {
+                p0: SupportPoint::vertex(3),
+                p1: SupportPoint::vertex(1),
+                axis: Some([0.0, 0.0, 1.0]),
+                target_sq: 400.0,
+                weight: 0.5,
+            },
+        ];
+        let obj = WeightObjective {
+            k,
+            rows,
+            base,
+            terms,
+        };
+        let w = vec![0.3, -0.7, 1.1];
+        let mut g = vec![0.0; k];
+        obj.eval(&w, &mut g);
+        let mut scratch = vec![0.0; k];
+        for j in 0..k {
+            let h = 1e-6;
+            let mut wp = w.clone();
+            wp[j] += h;
+            let fp = obj.eval(&wp, &mut scratch);
+            wp[j] -= 2.0 * h;
+            let fm = obj.eval(&wp, &mut scratch);
+            let fd = (fp - fm) / (2.0 * h);
+            assert!(
+                (fd - g[j]).abs() < 1e-6 * g[j].abs().max(1.0),
+                "{j}: {fd} vs {}",
+                g[j]
+            );
+        }
+    }
+
+    /// The step-2 objective (weighted sum) against finite differences.
+    #[test]
+    fn vertex_objective_gradient() {
+        let mut s = 23;
+        let p: Vec<Vec3> = (0..5)
+            .map(|_| {
+                [
+                    100.0 * lcg(&mut s),
+                    100.0 * lcg(&mut s),
+                    100.0 * lcg(&mut s),
+                ]
+            })
+            .collect();
+        let reference: Vec<Vec3> = p
+            .iter()
+            .map(|v| [v[0] + lcg(&mut s), v[1], v[2] - 2.0])
+            .collect();
+        let edges = [[0, 1], [1, 2], [2, 3], [3, 4], [0, 4], [1, 3]];
+        let obj = VertexObjective {
+            terms: vec![SegmentTerm {
+                p0: SupportPoint { a: 0, b: 1, t: 0.5 },
+                p1: SupportPoint::vertex(3),
+                axis: None,
+                target_sq: 2500.0,
+                weight: 1.0,
+            }],
+            edges: &edges,
+            reference: &reference,
+            lambda: 0.1,
+        };
+        let x: Vec<f64> = p.as_flattened().to_vec();
+        let mut g = vec![0.0; x.len()];
+        obj.eval(&x, &mut g);
+        let mut scratch = vec![0.0; x.len()];
+        let scale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for j in 0..x.len() {
+            let h = 1e-5;
+            let mut xp = x.clone();
+            xp[j] += h;
+            let fp = obj.eval(&xp, &mut scratch);
+            xp[j] -= 2.0 * h;
+            let fm = obj.eval(&xp, &mut scratch);
+            let fd = (fp - fm) / (2.0 * h);
+            assert!((fd - g[j]).abs() < 1e-6 * scale, "{j}: {fd} vs {}", g[j]);
+        }
+    }
+}

@@ -1,0 +1,278 @@
+//! End-to-end prediction on a synthetic tube family (see `common/`): the
+//! paper's pipeline must fit the targets, each stage no worse than the last,
+//! on a body with a local feature the training family lacks.
+
+mod common;
+
+use common::*;
+use tapeshape_model::{PlausibilityLabel, PredictSettings, Target};
+
+fn rms(errs: &[f64]) -> f64 {
+    (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt()
+}
+
+#[test]
+fn steps_reduce_the_error_and_step2_fits_to_a_tenth_of_a_millimetre() {
+    let model = train(60, 1);
+    assert!(model.n_components() >= 4, "K = {}", model.n_components());
+    let topo = topology();
+    let mut s = 999;
+    let mut truth = random_params(&mut s);
+    truth.bump = 0.015; // a local feature outside the training family
+    let body = tube(&truth);
+    let targets: Vec<Option<Target>> = measure_all(&body)
+        .into_iter()
+        .map(|v| Some(Target::exact(v)))
+        .collect();
+    let pred = model
+        .predict(&targets, &TubeMeasurer, &topo, &PredictSettings::default())
+        .unwrap();
+    let r = &pred.report;
+    let stage = |f: fn(&tapeshape_model::MeasurementReport) -> Option<f64>| -> Vec<f64> {
+        r.measurements
+            .iter()
+            .map(|m| (f(m).unwrap() - m.target_mm.unwrap()).abs())
+            .collect()
+    };
+    let (e0, e1, e2) = (
+        stage(|m| m.start_mm),
+        stage(|m| m.step1_mm),
+        stage(|m| m.step2_mm),
+    );
+    println!(
+        "start {e0:?}\nstep1 {e1:?}\nstep2 {e2:?}\n{:#?}\n{:?}\n{:?}",
+        r.step1_runs, r.warnings, r.weights_start
+    );
+    assert!(
+        rms(&e1) < rms(&e0),
+        "step 1 {} vs start {}",
+        rms(&e1),
+        rms(&e0)
+    );
+    assert!(
+        rms(&e2) < rms(&e1),
+        "step 2 {} vs step 1 {}",
+        rms(&e2),
+        rms(&e1)
+    );
+    assert!(e2.iter().all(|&e| e < 0.1), "step 2 errors {e2:?}");
+    for m in &r.measurements {
+        assert!(
+            (m.error_mm.unwrap() - (m.step2_mm.unwrap() - m.target_mm.unwrap()).abs()).abs() < 1e-9
+        );
+    }
+    // The bump is outside the PCA space: step 2 must have left it.
+    assert!(r.plausibility.out_of_space_max_mm > 0.1);
+    assert_eq!(r.plausibility.flipped_triangles, 0);
+    assert_eq!(r.plausibility.degenerate_triangles, 0);
+    assert!(pred.vertices.iter().flatten().all(|c| c.is_finite()));
+    assert_eq!(r.step1_runs.len(), 3);
+    assert_eq!(r.step2_runs.len(), 3);
+    // The report serialises to JSON.
+    let json = serde_json::to_string(r).unwrap();
+    assert!(json.contains("\"girth_5\""));
+}
+
+#[test]
+fn refinement_moves_an_in_family_body_closer_to_the_truth() {
+    let model = train(60, 2);
+    let topo = topology();
+    let mut s = 4242;
+    let body = tube(&random_params(&mut s));
+    let targets: Vec<Option<Target>> = measure_all(&body)
+        .into_iter()
+        .map(|v| Some(Target::exact(v)))
+        .collect();
+    let pred = model
+        .predict(&targets, &TubeMeasurer, &topo, &PredictSettings::default())
+        .unwrap();
+    let start = model.shape(&pred.report.weights_start);
+    let d_start = v2v_mm(&start, &body);
+    let d_final = v2v_mm(&pred.vertices, &body);
+    assert!(
+        d_final < d_start,
+        "final {d_final} mm vs start {d_start} mm"
+    );
+    assert!(
+        pred.report.warnings.is_empty(),
+        "{:?}",
+        pred.report.warnings
+    );
+    assert_eq!(pred.report.plausibility.label, PlausibilityLabel::Typical);
+}
+
+#[test]
+fn a_subset_of_measurements_starts_from_the_conditional_and_fits_what_was_given() {
+    let model = train(60, 3);
+    let topo = topology();
+    let mut s = 77;
+    let body = tube(&random_params(&mut s));
+    let all = measure_all(&body);
+    let mut targets: Vec<Option<Target>> = vec![None; 7];
+    for j in [0, 2, 4] {
+        targets[j] = Some(Target::exact(all[j]));
+    }
+    let pred = model
+        .predict(&targets, &TubeMeasurer, &topo, &PredictSettings::default())
+        .unwrap();
+    let r = &pred.report;
+    assert_eq!(
+        r.start_method,
+        tapeshape_model::predict::StartMethod::Conditional
+    );
+    for (j, m) in r.measurements.iter().enumerate() {
+        if targets[j].is_some() {
+            assert!(m.error_mm.unwrap() < 0.1, "{}: {:?}", m.name, m.error_mm);
+        } else {
+            assert!(m.target_mm.is_none() && m.error_mm.is_none() && m.start_mm.is_none());
+            assert!(
+                m.step2_mm.is_some(),
+                "not-given measurements are still reported"
+            );
+        }
+    }
+}
+
+#[test]
+fn implausible_targets_are_clamped_and_warned_about_never_a_crash() {
+    let model = train(60, 4);
+    let topo = topology();
+    let mut s = 5;
+    let body = tube(&random_params(&mut s));
+    // Girths three times the body's, height unchanged: far outside the family.
+    let targets: Vec<Option<Target>> = measure_all(&body)
+        .into_iter()
+        .enumerate()
+        .map(|(j, v)| {
+            Some(Target::exact(if (1..=4).contains(&j) {
+                3.0 * v
+            } else {
+                v
+            }))
+        })
+        .collect();
+    let settings = PredictSettings::default();
+    let pred = model
+        .predict(&targets, &TubeMeasurer, &topo, &settings)
+        .unwrap();
+    let r = &pred.report;
+    assert!(!r.plausibility.clamped_start.is_empty());
+    assert!(r
+        .weights_start
+        .iter()
+        .all(|w| w.abs() <= settings.l + 1e-12));
+    assert!(r
+        .weights_step1
+        .iter()
+        .all(|w| w.abs() <= settings.l + 1e-12));
+    assert_eq!(
+        r.plausibility.measurements_label,
+        PlausibilityLabel::Implausible
+    );
+    assert!(!r.warnings.is_empty());
+    assert!(pred.vertices.iter().flatten().all(|c| c.is_finite()));
+}
+
+#[test]
+fn bad_targets_are_clear_errors() {
+    let model = train(20, 6);
+    let topo = topology();
+    let settings = PredictSettings::default();
+    let mm: Vec<Option<Target>> = vec![Some(Target::exact(1750.0)); 7];
+    let err = model
+        .predict(&mm, &TubeMeasurer, &topo, &settings)
+        .unwrap_err();
+    assert!(err.to_string().contains("mm"), "{err}");
+    let none: Vec<Option<Target>> = vec![None; 7];
+    assert!(model
+        .predict(&none, &TubeMeasurer, &topo, &settings)
+        .is_err());
+    let short: Vec<Option<Target>> = vec![Some(Target::exact(1.0)); 3];
+    assert!(model
+        .predict(&short, &TubeMeasurer, &topo, &settings)
+        .is_err());
+    let mut nan: Vec<Option<Target>> = vec![None; 7];
+    nan[0] = Some(Target::exact(f64::NAN));
+    assert!(model
+        .predict(&nan, &TubeMeasurer, &topo, &settings)
+        .is_err());
+    let mut tol: Vec<Option<Target>> = vec![None; 7];
+    tol[0] = Some(Target::with_tolerance(1.7, -0.001));
+    assert!(model
+        .predict(&tol, &TubeMeasurer, &topo, &settings)
+        .is_err());
+}
+
+#[test]
+fn conditional_measurements_flag_an_inconsistent_reading() {
+    let model = train(80, 7);
+    let mut s = 8;
+    let body = tube(&random_params(&mut s));
+    let all = measure_all(&body);
+    let mut obs: Vec<Option<f64>> = all.iter().map(|&v| Some(v)).collect();
+    obs[2] = None; // girth_5, predicted from the others
+    let cond = model.conditional_measurements(&obs).unwrap();
+    let (mean, sd) = cond[2];
+    assert!(sd > 0.0);
+    // The true girth is within a few SD of what the others predict.
+    assert!(
+        ((all[2] - mean) / sd).abs() < 4.0,
+        "z = {}",
+        (all[2] - mean) / sd
+    );
+    // A reading of half the true girth is far off.
+    assert!(((0.5 * all[2] - mean) / sd).abs() > 6.0);
+    assert_eq!(cond[0], (all[0], 0.0));
+}
+
+#[test]
+fn tolerance_lets_a_doubtful_reading_give_way() {
+    let model = train(60, 9);
+    let topo = topology();
+    let mut s = 10;
+    let body = tube(&random_params(&mut s));
+    let all = measure_all(&body);
+    // girth_between_6_7 conflicts with the others by 3 cm; it is marked as a
+    // poor reading (5 cm tolerance), the rest as good (1 mm).
+    let make = |tol_bad: f64| -> Vec<Option<Target>> {
+        all.iter()
+            .enumerate()
+            .map(|(j, &v)| {
+                Some(if j == 4 {
+                    Target::with_tolerance(v + 0.03, tol_bad)
+                } else {
+                    Target::with_tolerance(v, 0.001)
+                })
+            })
+            .collect()
+    };
+    let settings = PredictSettings {
+        lambda: 0.5,
+        ..PredictSettings::default()
+    };
+    let trusted = model
+        .predict(&make(0.001), &TubeMeasurer, &topo, &settings)
+        .unwrap();
+    let doubtful = model
+        .predict(&make(0.05), &TubeMeasurer, &topo, &settings)
+        .unwrap();
+    let err_others = |p: &tapeshape_model::Prediction| -> f64 {
+        p.report
+            .measurements
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != 4)
+            .map(|(_, m)| m.error_mm.unwrap().powi(2))
+            .sum::<f64>()
+    };
+    let e4 = |p: &tapeshape_model::Prediction| p.report.measurements[4].error_mm.unwrap();
+    // Both keep the good readings fitted; only the trusted version bends the
+    // mesh to the doubtful one, the down-weighted one lets it go.
+    assert!(err_others(&doubtful).sqrt() < 0.1 && err_others(&trusted).sqrt() < 0.1);
+    assert!(e4(&trusted) < 0.1, "trusted reading error {}", e4(&trusted));
+    assert!(
+        e4(&doubtful) > 5.0,
+        "doubtful reading error {}",
+        e4(&doubtful)
+    );
+}
