@@ -454,8 +454,18 @@ impl BodyModel {
         (0..N_KEPT).map(|v| v < N_BODY).collect()
     }
 
-    /// Terms `(target id, weight)` of the macro blend for anchor weights `w` (README 4.3).
-    fn macro_terms(&self, w: &Anchors, out: &mut Vec<(u32, f64)>) {
+    /// Terms `(target id, weight)` of the macro blend for anchor weights `w`
+    /// (README 4.3). With `wrt = Some(p)`, `w` holds p's derivative weights
+    /// and only the families whose weight contains p's variable are emitted:
+    /// the others do not vary with p (their derivative is 0).
+    fn macro_terms(&self, w: &Anchors, wrt: Option<Param>, out: &mut Vec<(u32, f64)>) {
+        use Param::*;
+        let has = |vars: &[Param]| wrt.is_none_or(|p| vars.contains(&p));
+        let race = has(&[Gender, Age, African, Asian, Caucasian]);
+        let universal = has(&[Gender, Age, Muscle, Weight]);
+        let height = has(&[Gender, Age, Muscle, Weight, Height]);
+        let proportions = has(&[Gender, Age, Muscle, Weight, Proportions]);
+        let breast = has(&[Gender, Age, Muscle, Weight, Cupsize, Firmness]);
         let mut push = |t: u32, c: f64| {
             if c != 0.0 {
                 out.push((t, c));
@@ -468,8 +478,10 @@ impl BodyModel {
                 if ga == 0.0 {
                     continue;
                 }
-                for r in 0..3 {
-                    push(ids.race[r][g][a], w.r[r] * ga);
+                if race {
+                    for r in 0..3 {
+                        push(ids.race[r][g][a], w.r[r] * ga);
+                    }
                 }
                 for m in 0..3 {
                     for wt in 0..3 {
@@ -477,12 +489,18 @@ impl BodyModel {
                         if gamw == 0.0 {
                             continue;
                         }
-                        push(ids.universal[g][a][m][wt], gamw);
-                        for k in 0..2 {
-                            push(ids.height[g][a][m][wt][k], gamw * w.h[k]);
-                            push(ids.proportions[g][a][m][wt][k], gamw * w.p[k]);
+                        if universal {
+                            push(ids.universal[g][a][m][wt], gamw);
                         }
-                        if g == 1 {
+                        for k in 0..2 {
+                            if height {
+                                push(ids.height[g][a][m][wt][k], gamw * w.h[k]);
+                            }
+                            if proportions {
+                                push(ids.proportions[g][a][m][wt][k], gamw * w.p[k]);
+                            }
+                        }
+                        if g == 1 && breast {
                             for c in 0..3 {
                                 for f in 0..3 {
                                     if let Some(t) = ids.breast[a][m][wt][c][f] {
@@ -500,7 +518,7 @@ impl BodyModel {
     /// All blend terms of a validated body.
     fn terms(&self, ph: &Phenotype, local: &[(usize, f64)]) -> Vec<(u32, f64)> {
         let mut terms = Vec::with_capacity(160);
-        self.macro_terms(&Anchors::new(ph), &mut terms);
+        self.macro_terms(&Anchors::new(ph), None, &mut terms);
         for &(i, x) in local {
             let (pos, neg) = self.local[i];
             if x > 0.0 {
@@ -616,7 +634,7 @@ impl BodyModel {
                         let x = local.iter().find(|l| l.0 == i).map_or(0.0, |l| l.1);
                         terms.push(if x < 0.0 { (neg, -1.0) } else { (pos, 1.0) });
                     }
-                    _ => self.macro_terms(&anchors.derivative(ph, param), &mut terms),
+                    _ => self.macro_terms(&anchors.derivative(ph, param), Some(param), &mut terms),
                 }
                 let mut d = vec![[0.0; 3]; N_KEPT];
                 self.accumulate(&mut d, &terms);
