@@ -76,7 +76,8 @@ pub fn encode<'a, T: Serialize>(msg: &T, out: &'a mut [u8]) -> Result<&'a [u8], 
 
 /// Lower-level encoder: `payload[..body_len]` holds a postcard body; appends the CRC in
 /// `payload[body_len..body_len + 2]` and COBS-encodes into `out` with the delimiter. Returns
-/// the frame length. Exposed for the benchmark and for tests that forge frames.
+/// the frame length. Exposed for tests that forge frames (e.g. a correct CRC around a body
+/// that is not a message).
 ///
 /// # Errors
 /// [`FrameError::TooLarge`] if `payload` has no room for the CRC or `out` for the frame.

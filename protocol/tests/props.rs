@@ -213,6 +213,31 @@ proptest! {
         prop_assert_eq!(decode_all(&mut dec, &stream), expect);
     }
 
+    /// Where the link splits the byte stream into reads does not matter: feeding it in
+    /// random chunks gives exactly what feeding it whole gives, errors included.
+    #[test]
+    fn chunking_does_not_matter(
+        msgs in prop::collection::vec(device_msg(), 1..10),
+        junk in prop::collection::vec(any::<u8>(), 0..60),
+        cuts in prop::collection::vec(any::<prop::sample::Index>(), 0..12),
+    ) {
+        let mut stream = junk;
+        for m in &msgs {
+            stream.extend(frame_of(m));
+        }
+        let whole = decode_all(&mut FrameDecoder::<DeviceMsg>::new(), &stream);
+        let mut points: Vec<usize> = cuts.iter().map(|c| c.index(stream.len() + 1)).collect();
+        points.push(0);
+        points.push(stream.len());
+        points.sort_unstable();
+        let mut dec = FrameDecoder::<DeviceMsg>::new();
+        let mut pieces = Vec::new();
+        for w in points.windows(2) {
+            pieces.extend(dec.feed(&stream[w[0]..w[1]]));
+        }
+        prop_assert_eq!(pieces, whole);
+    }
+
     /// Random bytes never panic either decoder; after them, a delimiter and a valid frame,
     /// the valid frame always decodes (and is the last thing yielded).
     #[test]
@@ -314,4 +339,23 @@ proptest! {
             prop_assert_eq!(&out[..], &[Ok(b), Ok(c)][..]);
         }
     }
+}
+
+/// Dropping the `feed` iterator early still consumes the rest of the slice, so the decoder
+/// stays in step with the stream.
+#[test]
+fn dropping_feed_early_keeps_the_decoder_in_step() {
+    let a = DeviceMsg::Pong { nonce: 1 };
+    let b = DeviceMsg::Pong { nonce: 2 };
+    let c = DeviceMsg::Pong { nonce: 3 };
+    let mut stream = frame_of(&a);
+    stream.extend(frame_of(&b));
+    let cut = frame_of(&c);
+    stream.extend_from_slice(&cut[..3]);
+    let mut dec = FrameDecoder::<DeviceMsg>::new();
+    let first = dec.feed(&stream).next();
+    assert_eq!(first, Some(Ok(a)));
+    // `b` was consumed without being reported; the start of `c` is pending.
+    assert_eq!(dec.pending_len(), 3);
+    assert_eq!(decode_all(&mut dec, &cut[3..]), vec![Ok(c)]);
 }
