@@ -45,6 +45,20 @@ pub trait Measurer {
     fn measure(&self, vertices: &[Vec3], which: &[usize]) -> Result<Vec<Measured>, MeasureError>;
 }
 
+/// The real operators: a measurement set compiled for the template.
+impl Measurer for tapeshape_measure::CompiledSet {
+    fn n_measurements(&self) -> usize {
+        self.len()
+    }
+
+    fn measure(&self, vertices: &[Vec3], which: &[usize]) -> Result<Vec<Measured>, MeasureError> {
+        which
+            .iter()
+            .map(|&j| self.measure_one(j, vertices).map_err(Into::into))
+            .collect()
+    }
+}
+
 /// One measurement to fit: value and optional tolerance, metres.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Target {
