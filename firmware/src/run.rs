@@ -5,7 +5,7 @@
 //! the same everywhere and is tested on the host. No executor is named here; a board spawns
 //! a task that awaits [`run`].
 
-use embassy_futures::select::{select3, Either3};
+use embassy_futures::select::{select, select3, Either, Either3};
 use embedded_io_async::{Read, Write};
 use tapeshape_protocol::MAX_FRAME;
 
@@ -41,14 +41,18 @@ const ERROR_PAUSE_MS: u64 = 1;
 /// Runs the device: reads the tape and the host link, sends frames to the host, and wakes up
 /// for the device's timers. Returns only when a stream ends.
 ///
+/// The tape is read even while a frame is being written, so a host that is slow to collect
+/// bytes delays frames but never makes the tape's UART overflow. Host bytes that arrive
+/// during a write wait in the host reader's buffer (or are lost and repaired by the
+/// protocol: acks are cumulative, hellos and pings repeated).
+///
 /// Requirements on the streams (embassy's `BufferedUart`/`BufferedUarte` and USB CDC-ACM
 /// halves meet them):
 /// * the two readers are cancel-safe: a pending `read` is dropped whenever another event
 ///   comes first, and no byte may be lost by that;
-/// * the tape reader buffers while frames are written (at least 64 bytes: one retransmission
-///   round of the full queue takes about 60 ms at 115200 baud, during which the tape sends
-///   up to 60 bytes at 9600 baud);
-/// * `host_tx.write_all` must not block forever when no host listens (drop bytes instead).
+/// * the tape reader buffers at least one line (20 bytes) between polls of the loop;
+/// * `host_tx.write_all` should not block forever when no host listens (drop bytes
+///   instead): the tape is still read meanwhile, but nothing else is sent.
 ///
 /// Read and write errors are counted in the device status (`tape_io_errors`,
 /// `host_io_errors`) and the loop goes on; a frame whose write failed is a reading that will
@@ -80,16 +84,26 @@ where
     let mut host_buf = [0u8; 32];
     let mut frame = [0u8; MAX_FRAME];
     loop {
-        let now = clock.now_ms();
+        // Send everything that is ready. The tape keeps being read while a write waits
+        // (a host that is slow to collect bytes must not make the tape UART overflow).
         let mut wrote = false;
-        while let Some(f) = device.poll_frame(now, &mut frame) {
-            if host_tx.write_all(f).await.is_err() {
-                device.host_io_error();
+        while let Some(f) = device.poll_frame(clock.now_ms(), &mut frame) {
+            let len = f.len();
+            let write = host_tx.write_all(&frame[..len]);
+            match while_reading_tape(write, device, tape_rx, &mut tape_buf, clock).await {
+                Ok(Ok(())) => {}
+                Ok(Err(_)) => device.host_io_error(),
+                Err(end) => return end,
             }
             wrote = true;
         }
-        if wrote && host_tx.flush().await.is_err() {
-            device.host_io_error();
+        if wrote {
+            let flush = host_tx.flush();
+            match while_reading_tape(flush, device, tape_rx, &mut tape_buf, clock).await {
+                Ok(Ok(())) => {}
+                Ok(Err(_)) => device.host_io_error(),
+                Err(end) => return end,
+            }
         }
         let deadline = device.next_deadline();
         let event = select3(
@@ -99,23 +113,71 @@ where
         )
         .await;
         match event {
-            Either3::First(Ok(0)) => return RunEnd::TapeClosed,
-            Either3::First(Ok(n)) => device.feed_tape(&tape_buf[..n], clock.now_ms()),
-            Either3::First(Err(_)) => {
-                device.tape_io_error();
-                clock
-                    .sleep_until(clock.now_ms().saturating_add(ERROR_PAUSE_MS))
-                    .await;
+            Either3::First(r) => {
+                if let Err(end) = on_tape_read(r, device, &tape_buf, clock).await {
+                    return end;
+                }
             }
             Either3::Second(Ok(0)) => return RunEnd::HostClosed,
             Either3::Second(Ok(n)) => device.feed_host(&host_buf[..n], clock.now_ms()),
             Either3::Second(Err(_)) => {
                 device.host_io_error();
-                clock
-                    .sleep_until(clock.now_ms().saturating_add(ERROR_PAUSE_MS))
-                    .await;
+                pause_after_error(clock).await;
             }
             Either3::Third(()) => {}
         }
+    }
+}
+
+async fn pause_after_error<C: Clock>(clock: &C) {
+    clock
+        .sleep_until(clock.now_ms().saturating_add(ERROR_PAUSE_MS))
+        .await;
+}
+
+/// Feeds the outcome of one tape read to the device; `Err` when the tape stream ended.
+async fn on_tape_read<E, C: Clock>(
+    r: Result<usize, E>,
+    device: &mut Device,
+    buf: &[u8],
+    clock: &C,
+) -> Result<(), RunEnd> {
+    match r {
+        Ok(0) => Err(RunEnd::TapeClosed),
+        Ok(n) => {
+            device.feed_tape(&buf[..n], clock.now_ms());
+            Ok(())
+        }
+        Err(_) => {
+            device.tape_io_error();
+            pause_after_error(clock).await;
+            Ok(())
+        }
+    }
+}
+
+/// Runs `fut` to completion while feeding whatever the tape sends meanwhile to the device.
+/// `Err` when the tape stream ends first.
+async fn while_reading_tape<F, TR, C>(
+    fut: F,
+    device: &mut Device,
+    tape_rx: &mut TR,
+    buf: &mut [u8],
+    clock: &C,
+) -> Result<F::Output, RunEnd>
+where
+    F: core::future::Future,
+    TR: Read,
+    C: Clock,
+{
+    let pump = async {
+        loop {
+            let r = tape_rx.read(buf).await;
+            on_tape_read(r, device, buf, clock).await?;
+        }
+    };
+    match select(fut, pump).await {
+        Either::First(out) => Ok(out),
+        Either::Second(end) => end,
     }
 }

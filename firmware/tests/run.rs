@@ -67,6 +67,34 @@ impl Write for Pipe {
     }
 }
 
+/// A host-link writer that can be made to stall, like a USB host that does not collect.
+#[derive(Clone, Default)]
+struct StallWriter {
+    inner: Pipe,
+    stalled: Rc<Cell<bool>>,
+}
+
+impl ErrorType for StallWriter {
+    type Error = Infallible;
+}
+
+impl Write for StallWriter {
+    async fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
+        poll_fn(|_| {
+            if self.stalled.get() {
+                Poll::Pending
+            } else {
+                Poll::Ready(())
+            }
+        })
+        .await;
+        self.inner.write(buf).await
+    }
+    async fn flush(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+}
+
 /// A clock that only moves when the test says so. `embassy_futures::block_on` polls
 /// continuously, so pending futures need no waker.
 #[derive(Default)]
@@ -207,4 +235,70 @@ fn run_over_in_memory_pipes() {
     assert_eq!(end, RunEnd::TapeClosed);
     assert_eq!(device.queue_len(), 0);
     assert_eq!(device.status(5_000).lines_ok, 1);
+}
+
+#[test]
+fn the_tape_is_read_while_a_host_write_is_stalled() {
+    let tape = Pipe::default();
+    let host_in = Pipe::default();
+    let host_out = StallWriter::default();
+    let clock = FakeClock::default();
+    let mut cfg = Config::new(1, 2);
+    cfg.status_interval_ms = 0;
+    cfg.tape_silent_ms = 60_000;
+    let mut device = Device::new(cfg, 0);
+    let (mut tape_rx, mut host_rx, mut host_tx) = (tape.clone(), host_in.clone(), host_out.clone());
+    let device_side = run(
+        &mut device,
+        &mut tape_rx,
+        &mut host_rx,
+        &mut host_tx,
+        &clock,
+    );
+
+    let test_side = async {
+        let mut dec = FrameDecoder::<DeviceMsg>::new();
+        host_in.send(&frame(&HostMsg::Hello(HostHello {
+            protocol: PROTOCOL_VERSION,
+            software: SoftwareVersion {
+                major: 0,
+                minor: 1,
+                patch: 0,
+            },
+        })));
+        settle().await;
+        let _ = dec.feed(&host_out.inner.take_all()).count();
+
+        // The host stops collecting; the device has a pong to write and waits on it.
+        host_out.stalled.set(true);
+        host_in.send(&frame(&HostMsg::Ping { nonce: 5 }));
+        settle().await;
+        // Meanwhile the operator confirms a value at t = 77.
+        clock.0.set(77);
+        tape.send(&format_line(4321, Kind::Confirmed, UnitShown::Metric).unwrap());
+        settle().await;
+        // The host collects again at t = 500.
+        clock.0.set(500);
+        host_out.stalled.set(false);
+        settle().await;
+        let got: Vec<_> = dec
+            .feed(&host_out.inner.take_all())
+            .map(|r| r.unwrap())
+            .collect();
+        assert_eq!(got[0], DeviceMsg::Pong { nonce: 5 });
+        // The line was read (and timestamped) during the stall, not after it.
+        assert!(
+            got.contains(&DeviceMsg::Reading(Reading {
+                boot_id: 2,
+                seq: 0,
+                value_tenth_mm: 4321,
+                timestamp_ms: 77,
+                unit_shown: UnitShown::Metric,
+            })),
+            "{got:?}"
+        );
+        tape.close();
+    };
+    let (end, ()) = embassy_futures::block_on(join(device_side, test_side));
+    assert_eq!(end, RunEnd::TapeClosed);
 }
