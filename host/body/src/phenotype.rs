@@ -123,7 +123,7 @@ fn interp(x: f64, knots: [(f64, f64); 4]) -> f64 {
 /// `Default` is a gender-neutral average adult: gender 0.5, age 35 years
 /// (anny 0.79217), muscle, weight, proportions, cupsize and firmness 0.5,
 /// height 0.37 (between anny's calibrated adult means, 0.39 male and 0.35
-/// female), equal race weights. Its stature is about 1.70 m.
+/// female), equal race weights. Its stature is 1.688 m.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Phenotype {
     /// 0 = male, 1 = female.

@@ -292,9 +292,9 @@ pub fn bounding_box(points: &[Vec3]) -> Option<Aabb> {
         max: first,
     };
     for p in points {
-        for k in 0..3 {
-            b.min[k] = b.min[k].min(p[k]);
-            b.max[k] = b.max[k].max(p[k]);
+        for (k, &c) in p.iter().enumerate() {
+            b.min[k] = b.min[k].min(c);
+            b.max[k] = b.max[k].max(c);
         }
     }
     Some(b)
