@@ -365,7 +365,7 @@ impl Link {
             session: None,
             naming: Naming::None,
             counters: LinkCounters::default(),
-            last_unassigned: None,
+            reported_unassigned: HashSet::new(),
         };
         let join = tokio::spawn(task.run());
         (LinkHandle { cmd: cmd_tx }, ev_rx, join)
@@ -387,9 +387,9 @@ struct LinkTask {
     session: Option<SessionId>,
     naming: Naming,
     counters: LinkCounters,
-    /// (boot, seq) of the last reading reported unassigned, so that
-    /// retransmissions are not reported again.
-    last_unassigned: Option<(u32, u32)>,
+    /// (boot, seq) of readings reported unassigned, so that retransmissions
+    /// are not reported again; cleared when the target changes.
+    reported_unassigned: HashSet<(u32, u32)>,
 }
 
 /// Per-connection state.
@@ -428,11 +428,11 @@ impl LinkTask {
             None | Some(Command::Shutdown) => return false,
             Some(Command::SetSession(s)) => {
                 self.session = s;
-                self.last_unassigned = None;
+                self.reported_unassigned.clear();
             }
             Some(Command::SetNaming(n)) => {
                 self.naming = n;
-                self.last_unassigned = None;
+                self.reported_unassigned.clear();
             }
             // Only meaningful while connected; handled there.
             Some(Command::Ping) | Some(Command::GetStatus) => {}
@@ -519,6 +519,11 @@ impl LinkTask {
             ping_nonce: 0,
             pings: Vec::new(),
         };
+        // A lone delimiter first ends any partial frame the device holds
+        // from an earlier connection (docs/wire-format.md, handshake).
+        if let Err(e) = conn.port.write_all(&[0]).await {
+            return End::Lost(format!("write error: {e}"));
+        }
         if let Err(e) = self.send_hello(&mut conn).await {
             return End::Lost(e);
         }
@@ -701,20 +706,14 @@ impl LinkTask {
         Ok(())
     }
 
-    /// The name for the next reading of `session`, or why there is none.
-    fn next_name(&self, session: SessionId) -> Result<String, Unassigned> {
+    /// The name for the next reading (`None`: numbered, decided in the
+    /// commit), or why there is none.
+    fn next_name(&self) -> Result<Option<String>, Unassigned> {
         match &self.naming {
             Naming::None => Err(Unassigned::NoName),
-            Naming::Current(n) => Ok(n.clone()),
-            Naming::Script(q) => q.front().cloned().ok_or(Unassigned::NoName),
-            Naming::Numbered => {
-                let n = self
-                    .store
-                    .open_session(session)
-                    .map(|d| d.readings.len())
-                    .unwrap_or(0);
-                Ok(format!("reading-{}", n + 1))
-            }
+            Naming::Current(n) => Ok(Some(n.clone())),
+            Naming::Script(q) => q.front().cloned().map(Some).ok_or(Unassigned::NoName),
+            Naming::Numbered => Ok(None),
         }
     }
 
@@ -759,7 +758,7 @@ impl LinkTask {
         };
         let target = match self.session {
             None => Err(Unassigned::NoSession),
-            Some(s) => self.next_name(s).map(|n| (s, n)),
+            Some(s) => self.next_name().map(|n| (s, n)),
         };
         let (session, name) = match (target, last) {
             (_, Some(last)) if r.seq <= last => {
@@ -767,8 +766,9 @@ impl LinkTask {
             }
             (Ok(t), _) => t,
             (Err(why), _) => {
-                if self.last_unassigned != Some((r.boot_id, r.seq)) {
-                    self.last_unassigned = Some((r.boot_id, r.seq));
+                // Bounded: at most the device's queue of unacknowledged
+                // readings per target.
+                if self.reported_unassigned.insert((r.boot_id, r.seq)) {
                     self.emit(LinkEvent::ReadingUnassigned { reading: r, why })
                         .await;
                 }
@@ -779,7 +779,13 @@ impl LinkTask {
             .blocking({
                 let store = self.store.clone();
                 let name = name.clone();
-                move || store.commit_reading(session, &name, &dev)
+                move || {
+                    let name = match name {
+                        Some(n) => n,
+                        None => format!("reading-{}", store.reading_count(session)? + 1),
+                    };
+                    store.commit_reading(session, &name, &dev)
+                }
             })
             .await;
         match outcome {
@@ -795,7 +801,7 @@ impl LinkTask {
                 .await?;
                 self.counters.committed += 1;
                 if let Naming::Script(q) = &mut self.naming {
-                    if q.front() == Some(&name) {
+                    if name.is_some() && q.front() == name.as_ref() {
                         q.pop_front();
                     }
                 }

@@ -575,6 +575,17 @@ impl Store {
         Ok(out)
     }
 
+    /// Number of readings in session `id`, retakes included (0 for a
+    /// session that does not exist).
+    pub fn reading_count(&self, id: SessionId) -> Result<u64, StoreError> {
+        let n: i64 = self.lock().query_row(
+            "SELECT COUNT(*) FROM readings WHERE session_id = ?1",
+            [id.0],
+            |r| r.get(0),
+        )?;
+        Ok(u64::try_from(n).unwrap_or(0))
+    }
+
     /// Session `id` with every reading (retakes included), oldest first.
     pub fn open_session(&self, id: SessionId) -> Result<SessionDetail, StoreError> {
         let session = self.session(id)?;

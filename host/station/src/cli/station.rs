@@ -4,7 +4,7 @@
 //! This is the plain-text face of the station until the terminal interface
 //! (a later issue) replaces it; it is also what scripts and end-to-end tests
 //! drive. Every line on stdout starts with a fixed word (`session`, `port`,
-//! `connected`, `live`, `committed`, `duplicate`, `gap`, `held`,
+//! `connected`, `live`, `next`, `committed`, `complete`, `duplicate`, `gap`, `held`,
 //! `commit-failed`, `fault`, `status`, `button`, `bad-frame`,
 //! `disconnected`, `waiting`, `done`, `stopped`) so it can be followed by
 //! eye or by a program. Logs go to stderr.
@@ -42,19 +42,22 @@ pub struct Args {
     #[arg(long)]
     pub resume: bool,
 
-    /// Measurement set the new session follows (recorded with the session).
+    /// Measurement set the new session follows (a built-in set such as
+    /// paper34, ansur, quick, face7, or a set's TOML file): readings take the
+    /// set's measurement names in order. A resumed session keeps its set and
+    /// continues with the measurements it does not have yet.
     #[arg(long = "set", value_name = "NAME")]
     pub measurement_set: Option<String>,
 
     /// Names of the measurements, in the order they will be taken
-    /// (comma-separated); each committed reading takes the next name. Without
-    /// it, readings are named reading-1, reading-2, ...
+    /// (comma-separated); overrides the set's order. Without this or a set,
+    /// readings are named reading-1, reading-2, ...
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     pub measurements: Vec<String>,
 
-    /// With --measurements: mark the session done and exit once every named
-    /// measurement is committed.
-    #[arg(long, requires = "measurements")]
+    /// With a set or --measurements: mark the session done and exit once
+    /// every measurement is committed.
+    #[arg(long)]
     pub exit_when_complete: bool,
 
     /// Print live tape values as they change.
@@ -71,24 +74,86 @@ pub struct Args {
 pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     let store = global.open_store()?;
     let session = choose_session(&store, &args)?;
+    let plan = plan(&store, &session, &args)?;
     println!(
-        "session {} customer {} ({} readings so far); store {}",
+        "session {} customer {} set {} ({} readings so far); store {}",
         session.id,
         session.customer_id,
-        store.open_session(session.id)?.readings.len(),
+        session.measurement_set.as_deref().unwrap_or("-"),
+        store.reading_count(session.id)?,
         store.path().display()
     );
+    if args.exit_when_complete && plan.as_ref().is_none_or(|p| p.is_empty()) {
+        bail!(
+            "--exit-when-complete needs something to complete: a --set or --measurements \
+             with measurements this session does not have yet"
+        );
+    }
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
         .context("starting the async runtime")?;
-    runtime.block_on(run_link(args, store, session.id))
+    runtime.block_on(run_link(args, store, session.id, plan))
+}
+
+/// One measurement still to take: its name and what to tell the operator.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Planned {
+    /// Measurement name stored with the reading.
+    pub name: String,
+    /// Human label (the name itself when there is none).
+    pub label: String,
+}
+
+/// The measurements still to take in this session, in order, or `None` when
+/// readings are simply numbered. Names the session already has are skipped,
+/// so a resumed session continues where it stopped.
+pub fn plan(store: &Store, session: &Session, args: &Args) -> anyhow::Result<Option<Vec<Planned>>> {
+    let all: Vec<Planned> = if !args.measurements.is_empty() {
+        args.measurements
+            .iter()
+            .map(|n| Planned {
+                name: n.trim().to_string(),
+                label: n.trim().to_string(),
+            })
+            .collect()
+    } else if let Some(set) = &session.measurement_set {
+        let set = tapeshape_measure::MeasurementSet::load(set).with_context(|| {
+            format!("loading measurement set {set:?} of session {}", session.id)
+        })?;
+        set.definitions
+            .into_iter()
+            .map(|d| Planned {
+                name: d.name,
+                label: d.label,
+            })
+            .collect()
+    } else {
+        return Ok(None);
+    };
+    let have: std::collections::HashSet<String> = store
+        .open_session(session.id)?
+        .current_readings()
+        .map(|r| r.measurement.clone())
+        .collect();
+    Ok(Some(
+        all.into_iter()
+            .filter(|p| !have.contains(&p.name))
+            .collect(),
+    ))
 }
 
 fn choose_session(store: &Store, args: &Args) -> anyhow::Result<Session> {
     if let Some(customer) = &args.customer {
+        if let Some(set) = &args.measurement_set {
+            // Refuse an unknown set before creating the session.
+            tapeshape_measure::MeasurementSet::load(set)?;
+        }
         return Ok(store.create_session(customer, args.measurement_set.as_deref())?);
+    }
+    if args.measurement_set.is_some() {
+        bail!("--set applies to a new session (--customer); a resumed session keeps its own set");
     }
     let session = if let Some(id) = args.session {
         store.session(SessionId(id))?
@@ -110,20 +175,26 @@ fn choose_session(store: &Store, args: &Args) -> anyhow::Result<Session> {
     Ok(session)
 }
 
-async fn run_link(args: Args, store: Store, session: SessionId) -> anyhow::Result<()> {
+async fn run_link(
+    args: Args,
+    store: Store,
+    session: SessionId,
+    plan: Option<Vec<Planned>>,
+) -> anyhow::Result<()> {
     let config = LinkConfig {
         baud_rate: args.baud,
         ..LinkConfig::default()
     };
     let (link, mut events, task) = Link::spawn(&args.port, config, store.clone());
     link.set_session(Some(session));
-    let scripted = !args.measurements.is_empty();
-    link.set_naming(if scripted {
-        Naming::Script(args.measurements.iter().cloned().collect::<VecDeque<_>>())
-    } else {
-        Naming::Numbered
+    let mut todo: VecDeque<Planned> = plan.clone().unwrap_or_default().into();
+    link.set_naming(match &plan {
+        Some(p) => Naming::Script(p.iter().map(|p| p.name.clone()).collect()),
+        None => Naming::Numbered,
     });
-    let mut remaining = args.measurements.len();
+    if let Some(next) = todo.front() {
+        println!("next {} ({})", next.name, next.label);
+    }
     let mut last_live = None;
     let mut result = Ok(());
     let ctrl_c = tokio::signal::ctrl_c();
@@ -184,12 +255,20 @@ async fn run_link(args: Args, store: Store, session: SessionId) -> anyhow::Resul
                     format_tenth_mm(reading.device.value_tenth_mm),
                     reading.device.seq
                 );
-                if scripted {
-                    remaining = remaining.saturating_sub(1);
-                    if remaining == 0 && args.exit_when_complete {
-                        store.set_status(session, SessionStatus::Done)?;
-                        println!("done session {session}: every measurement committed");
-                        link.shutdown();
+                if plan.is_some() {
+                    if todo.front().map(|p| &p.name) == Some(&reading.measurement) {
+                        todo.pop_front();
+                    }
+                    match todo.front() {
+                        Some(next) => println!("next {} ({})", next.name, next.label),
+                        None => {
+                            println!("complete every measurement of the session is stored");
+                            if args.exit_when_complete {
+                                store.set_status(session, SessionStatus::Done)?;
+                                println!("done session {session} marked done");
+                                link.shutdown();
+                            }
+                        }
                     }
                 }
             }

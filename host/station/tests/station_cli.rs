@@ -1,0 +1,164 @@
+//! The `tapeshape` binary end to end against a simulated device: a session
+//! following a measurement set, the listing and show commands, and the
+//! version-mismatch error.
+
+mod common;
+
+use std::time::Duration;
+
+use common::{tapeshape, SimDevice};
+use tapeshape::store::{SessionStatus, Store};
+use tapeshape_protocol::{ProtocolVersion, PROTOCOL_VERSION};
+
+/// Waits for `child` to exit, at most `secs`; kills it and fails otherwise.
+async fn wait_exit(child: &mut std::process::Child, secs: u64) -> std::process::ExitStatus {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(secs);
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        if tokio::time::Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("station did not exit within {secs} s");
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+fn output_of(child: std::process::Child) -> (String, String) {
+    let out = child.wait_with_output().unwrap();
+    (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_session_follows_its_set_and_completes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    let dev = SimDevice::start(common::compatible());
+    let set = tapeshape_measure::MeasurementSet::builtin("quick").unwrap();
+    let names: Vec<String> = set.definitions.iter().map(|d| d.name.clone()).collect();
+    assert!(names.len() >= 3);
+    let mut child = tapeshape(&data, &["station", "--customer", "anna", "--set", "quick"])
+        .arg("--port")
+        .arg(&dev.port)
+        .arg("--exit-when-complete")
+        .spawn()
+        .unwrap();
+    // The operator measures: one value per measurement of the set.
+    for i in 0..names.len() {
+        dev.state
+            .lock()
+            .unwrap()
+            .take(1000 + 10 * u32::try_from(i).unwrap());
+    }
+    let status = wait_exit(&mut child, 20).await;
+    let (stdout, stderr) = output_of(child);
+    assert!(status.success(), "stdout:\n{stdout}\nstderr:\n{stderr}");
+    assert!(stdout.contains("complete"), "{stdout}");
+    assert!(stdout.contains(&format!("next {}", names[0])), "{stdout}");
+
+    let store = Store::open(&data).unwrap();
+    let list = store.list_sessions().unwrap();
+    assert_eq!(list.len(), 1);
+    let s = &list[0].session;
+    assert_eq!(s.status, SessionStatus::Done);
+    assert_eq!(s.measurement_set.as_deref(), Some("quick"));
+    let got: Vec<(String, u32)> = store
+        .open_session(s.id)
+        .unwrap()
+        .readings
+        .into_iter()
+        .map(|r| (r.measurement, r.device.value_tenth_mm))
+        .collect();
+    let want: Vec<(String, u32)> = names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (n.clone(), 1000 + 10 * u32::try_from(i).unwrap()))
+        .collect();
+    assert_eq!(got, want);
+
+    let out = tapeshape(&data, &["sessions"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    assert!(
+        text.contains("anna") && text.contains("done") && text.contains("quick"),
+        "{text}"
+    );
+    let id = s.id.to_string();
+    let out = tapeshape(&data, &["session", "show", &id])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    assert!(
+        text.contains(&names[1]) && text.contains("101.0 mm"),
+        "{text}"
+    );
+    // A second run cannot resume a finished session.
+    let out = tapeshape(&data, &["station", "--resume", "--port", "/nonexistent"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no open session"));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn version_mismatch_exits_naming_both_versions() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    let theirs = ProtocolVersion {
+        major: PROTOCOL_VERSION.major + 1,
+        minor: 3,
+    };
+    let dev = SimDevice::start(theirs);
+    dev.state.lock().unwrap().take(4242);
+    let mut child = tapeshape(&data, &["station", "--customer", "bob", "--port"])
+        .arg(&dev.port)
+        .spawn()
+        .unwrap();
+    let status = wait_exit(&mut child, 20).await;
+    let (stdout, stderr) = output_of(child);
+    assert!(!status.success(), "{stdout}");
+    let ours = format!(
+        "protocol {}.{}",
+        PROTOCOL_VERSION.major, PROTOCOL_VERSION.minor
+    );
+    let device = format!("protocol {}.{}", theirs.major, theirs.minor);
+    assert!(
+        stderr.contains(&ours) && stderr.contains(&device),
+        "{stderr}"
+    );
+    // Nothing was stored or acknowledged.
+    assert_eq!(dev.state.lock().unwrap().acked, None);
+    let store = Store::open(&data).unwrap();
+    let id = store.list_sessions().unwrap()[0].session.id;
+    assert_eq!(store.reading_count(id).unwrap(), 0);
+}
+
+#[tokio::test]
+async fn unknown_set_is_refused_before_a_session_is_created() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    let out = tapeshape(
+        &data,
+        &[
+            "station",
+            "--customer",
+            "c",
+            "--set",
+            "quik",
+            "--port",
+            "/nonexistent",
+        ],
+    )
+    .output()
+    .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("quick"), "{err}");
+    let store = Store::open(&data).unwrap();
+    assert!(store.list_sessions().unwrap().is_empty());
+}
