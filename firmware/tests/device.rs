@@ -698,3 +698,34 @@ fn a_clock_at_the_end_of_its_range_does_not_panic() {
     let _ = drain(&mut d, 0);
     assert_eq!(d.status(u64::MAX).uptime_ms, 10);
 }
+
+#[test]
+fn a_ping_flood_overflows_the_outbox_counted_not_silently() {
+    let mut d = linked();
+    let mut flood = Vec::new();
+    for nonce in 0..40 {
+        flood.extend(frame(&HostMsg::Ping { nonce }));
+    }
+    d.feed_host(&flood, 1);
+    let pongs: Vec<u32> = drain(&mut d, 1)
+        .into_iter()
+        .filter_map(|m| match m {
+            DeviceMsg::Pong { nonce } => Some(nonce),
+            _ => None,
+        })
+        .collect();
+    // The first ones are answered in order; every unanswered one is counted.
+    assert!(!pongs.is_empty());
+    assert_eq!(pongs, (0..pongs.len() as u32).collect::<Vec<_>>());
+    assert_eq!(d.status(1).reports_dropped as usize, 40 - pongs.len());
+}
+
+#[test]
+fn io_errors_reported_by_the_board_are_counted() {
+    let mut d = linked();
+    d.tape_io_error();
+    d.tape_io_error();
+    d.host_io_error();
+    let st = d.status(0);
+    assert_eq!((st.tape_io_errors, st.host_io_errors), (2, 1));
+}
