@@ -59,7 +59,8 @@ pub fn set_raw(fd: impl AsFd) -> io::Result<()> {
 /// other end has gone.
 #[derive(Debug)]
 pub struct TtyStream {
-    fd: AsyncFd<OwnedFd>,
+    // Always `Some` between calls; taken only while re-registering (see `reregister`).
+    fd: Option<AsyncFd<OwnedFd>>,
 }
 
 impl TtyStream {
@@ -71,7 +72,36 @@ impl TtyStream {
         // SAFETY: `fd` is an `OwnedFd` moved into the `AsyncFd`, which owns it from here on;
         // nothing else can close or replace the descriptor while it is registered.
         let fd = unsafe { AsyncFd::register(fd)? };
-        Ok(Self { fd })
+        Ok(Self { fd: Some(fd) })
+    }
+
+    fn afd(&self) -> &AsyncFd<OwnedFd> {
+        self.fd
+            .as_ref()
+            .expect("TtyStream: descriptor always registered between calls")
+    }
+
+    /// Registers the descriptor with tokio afresh.
+    ///
+    /// Why: tokio keeps the "read closed" / "write closed" readiness that a hang-up (`POLLHUP`)
+    /// sets for the rest of a registration's life, on purpose (sockets do not reopen). A pty
+    /// master does: when a process opens the slave again, the master is usable again, but its
+    /// old registration would keep reporting "ready" and a read would return `EAGAIN` forever,
+    /// a busy loop. A fresh registration starts from the descriptor's real state.
+    fn reregister(&mut self) -> io::Result<()> {
+        if let Some(afd) = self.fd.take() {
+            let fd = afd.into_inner();
+            // SAFETY: as in `from_fd`: the descriptor is owned and moved in.
+            self.fd = Some(unsafe { AsyncFd::register(fd)? });
+        }
+        Ok(())
+    }
+
+    /// Another stream on a duplicate of the same descriptor (its own registration), so a
+    /// reader and a writer can own one each.
+    pub fn try_clone(&self) -> io::Result<Self> {
+        let fd = rustix::io::fcntl_dupfd_cloexec(self.afd().get_ref(), 0)?;
+        Self::from_fd(fd)
     }
 
     /// Opens a tty by path (for example a pty slave that QEMU created), puts it in raw mode
@@ -90,7 +120,7 @@ impl TtyStream {
     /// open (Linux reports `POLLHUP` on the master while none has).
     pub fn peer_present(&self) -> io::Result<bool> {
         use rustix::event::{PollFd, PollFlags, Timespec};
-        let mut fds = [PollFd::new(self.fd.get_ref(), PollFlags::IN)];
+        let mut fds = [PollFd::new(self.afd().get_ref(), PollFlags::IN)];
         let zero = Timespec {
             tv_sec: 0,
             tv_nsec: 0,
@@ -101,7 +131,10 @@ impl TtyStream {
 
     /// Discards bytes received but not yet read, and bytes written but not yet transmitted.
     pub fn flush_queues(&self) -> io::Result<()> {
-        rustix::termios::tcflush(self.fd.get_ref(), rustix::termios::QueueSelector::IOFlush)?;
+        rustix::termios::tcflush(
+            self.afd().get_ref(),
+            rustix::termios::QueueSelector::IOFlush,
+        )?;
         Ok(())
     }
 }
@@ -112,8 +145,10 @@ impl AsyncRead for TtyStream {
         cx: &mut Context<'_>,
         buf: &mut ReadBuf<'_>,
     ) -> Poll<io::Result<()>> {
+        let this = self.get_mut();
         loop {
-            let mut guard = ready!(self.fd.poll_read_ready(cx))?;
+            let mut guard = ready!(this.afd().poll_read_ready(cx))?;
+            let stale_hangup = guard.ready().is_read_closed();
             let unfilled = buf.initialize_unfilled();
             match guard.try_io(|inner| {
                 rustix::io::read(inner.get_ref(), &mut *unfilled).map_err(io::Error::from)
@@ -123,7 +158,8 @@ impl AsyncRead for TtyStream {
                     return Poll::Ready(Ok(()));
                 }
                 Ok(Err(e)) => return Poll::Ready(Err(e)),
-                Err(_would_block) => continue,
+                Err(_would_block) if stale_hangup => this.reregister()?,
+                Err(_would_block) => {}
             }
         }
     }
@@ -135,13 +171,16 @@ impl AsyncWrite for TtyStream {
         cx: &mut Context<'_>,
         buf: &[u8],
     ) -> Poll<io::Result<usize>> {
+        let this = self.get_mut();
         loop {
-            let mut guard = ready!(self.fd.poll_write_ready(cx))?;
+            let mut guard = ready!(this.afd().poll_write_ready(cx))?;
+            let stale_hangup = guard.ready().is_write_closed();
             match guard
                 .try_io(|inner| rustix::io::write(inner.get_ref(), buf).map_err(io::Error::from))
             {
                 Ok(result) => return Poll::Ready(result),
-                Err(_would_block) => continue,
+                Err(_would_block) if stale_hangup => this.reregister()?,
+                Err(_would_block) => {}
             }
         }
     }
@@ -184,6 +223,8 @@ impl PtyPair {
         )?;
         set_raw(&slave)?;
         set_raw(&master)?;
+        // Closing it leaves the master in the "nobody has the slave open" state (reads fail
+        // with EIO, poll reports POLLHUP), which is what the simulator wants to see.
         drop(slave);
         Ok(Self {
             master: TtyStream::from_fd(master)?,
@@ -365,5 +406,20 @@ mod tests {
         assert!(pair.master.peer_present().unwrap());
         drop(slave);
         assert!(!pair.master.peer_present().unwrap());
+        // After a hang-up the master works again for the next process (no stale readiness:
+        // a read waits instead of spinning, and data flows).
+        let mut slave = TtyStream::open_path(&pair.slave_path).unwrap();
+        let pending =
+            tokio::time::timeout(Duration::from_millis(100), pair.master.read(&mut buf)).await;
+        assert!(pending.is_err(), "read must wait for data: {pending:?}");
+        slave.write_all(b"ok").await.unwrap();
+        tokio::time::timeout(
+            Duration::from_secs(5),
+            pair.master.read_exact(&mut buf[..2]),
+        )
+        .await
+        .unwrap()
+        .unwrap();
+        assert_eq!(&buf[..2], b"ok");
     }
 }
