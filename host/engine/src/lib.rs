@@ -1,1 +1,19 @@
-//! The tapeshape shape engine: bodies, measurements, populations, model training and prediction (no serial, no UI).
+//! The tapeshape shape engine: bodies, measurements, populations, model
+//! training and prediction. No serial ports, no terminal code.
+//!
+//! The engine is split into small crates that are re-exported here:
+//! [`mesh`] (meshes, topology, I/O), [`body`] (the MakeHuman body generator,
+//! landmarks, parts), [`measure`] (measurement operators and sets). This
+//! crate adds [`ansur`] (the embedded ANSUR II survey and its fixed split) and
+//! [`dataset`] (populations, faces, imports and the dataset file format).
+//!
+//! Units: metres inside, station frame (Z up, feet at z = 0, +Y front, +X the
+//! body's right).
+
+pub mod ansur;
+pub mod dataset;
+pub mod stats;
+
+pub use tapeshape_body as body;
+pub use tapeshape_measure as measure;
+pub use tapeshape_mesh as mesh;
