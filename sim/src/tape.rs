@@ -20,6 +20,8 @@ use rand::{RngExt, SeedableRng};
 use tokio::io::{AsyncWrite, AsyncWriteExt};
 use tokio::time::Instant;
 
+pub use tapeshape_firmware::tape::ValueTooWide;
+use tapeshape_firmware::tape::{format_line, Kind};
 pub use tapeshape_protocol::UnitShown;
 
 /// Largest value the tape line can carry (five digits of hundredths of a centimetre).
@@ -44,15 +46,15 @@ pub struct TapeLine {
 }
 
 impl TapeLine {
-    /// The 20 bytes the tape sends for this line, newline included.
-    pub fn to_bytes(&self) -> Vec<u8> {
-        // Until the firmware crate's formatter is wired in, format per docs/tape-format.md.
-        let kind = if self.confirmed { 'S' } else { 'P' };
-        let unit = match self.unit {
-            UnitShown::Metric => 'M',
-            UnitShown::Imperial => 'I',
+    /// The 20 bytes the tape sends for this line, newline included. Fails for a value wider
+    /// than the line's five digits.
+    pub fn to_bytes(&self) -> Result<Vec<u8>, ValueTooWide> {
+        let kind = if self.confirmed {
+            Kind::Confirmed
+        } else {
+            Kind::Live
         };
-        format!("*{:05};00000;0000{kind}{unit}\n", self.value_tenth_mm).into_bytes()
+        format_line(self.value_tenth_mm, kind, self.unit).map(|l| l.to_vec())
     }
 }
 
@@ -193,7 +195,12 @@ impl Script {
                 unit,
             }
             .to_bytes()
+            .map_err(|e| ScriptError::OutOfRange {
+                step: 0,
+                value: e.0,
+            })
         };
+        let heartbeat = line(0, false, UnitShown::Metric)?;
         for (i, step) in self.steps.iter().enumerate() {
             match step {
                 Step::Pull { to_tenth_mm, over } => {
@@ -207,7 +214,7 @@ impl Script {
                         t += live;
                         out.push(TimedOutput {
                             at: t,
-                            bytes: line(v as u32, false, unit),
+                            bytes: line(v as u32, false, unit)?,
                             confirmation: None,
                         });
                     }
@@ -220,7 +227,7 @@ impl Script {
                     t += live;
                     out.push(TimedOutput {
                         at: t,
-                        bytes: line(cur, true, unit),
+                        bytes: line(cur, true, unit)?,
                         confirmation: Some((confirmations, cur)),
                     });
                     confirmations += 1;
@@ -231,7 +238,7 @@ impl Script {
                         t += hb;
                         out.push(TimedOutput {
                             at: t,
-                            bytes: HEARTBEAT.to_bytes(),
+                            bytes: heartbeat.clone(),
                             confirmation: None,
                         });
                     }
@@ -304,14 +311,19 @@ mod tests {
             confirmed: true,
             unit: UnitShown::Metric,
         };
-        assert_eq!(l.to_bytes(), b"*08520;00000;0000SM\n");
+        assert_eq!(l.to_bytes().unwrap(), b"*08520;00000;0000SM\n");
         let l = TapeLine {
             value_tenth_mm: 12,
             confirmed: false,
             unit: UnitShown::Imperial,
         };
-        assert_eq!(l.to_bytes(), b"*00012;00000;0000PI\n");
-        assert_eq!(HEARTBEAT.to_bytes(), b"*00000;00000;0000PM\n");
+        assert_eq!(l.to_bytes().unwrap(), b"*00012;00000;0000PI\n");
+        assert_eq!(HEARTBEAT.to_bytes().unwrap(), b"*00000;00000;0000PM\n");
+        let wide = TapeLine {
+            value_tenth_mm: 100_000,
+            ..l
+        };
+        assert!(wide.to_bytes().is_err());
     }
 
     #[test]
@@ -363,7 +375,7 @@ mod tests {
         };
         let tl = s.timeline(TapeTiming::default()).unwrap();
         assert_eq!(tl.len(), 3);
-        assert!(tl.iter().all(|o| o.bytes == HEARTBEAT.to_bytes()));
+        assert!(tl.iter().all(|o| o.bytes == HEARTBEAT.to_bytes().unwrap()));
         let bad = Script {
             steps: vec![Step::Hold],
         };
