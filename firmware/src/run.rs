@@ -58,7 +58,7 @@ const ERROR_PAUSE_MS: u64 = 1;
 /// `host_io_errors`) and the loop goes on; a frame whose write failed is a reading that will
 /// be retransmitted, or a report whose counters the next status repeats.
 ///
-/// ```ignore
+/// ```text
 /// // On an embassy board (sketch; see firmware/boards/):
 /// #[embassy_executor::task]
 /// async fn link(tape: BufferedUarteRx<'static>, usb_rx: CdcRx, usb_tx: CdcTx) {
