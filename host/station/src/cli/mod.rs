@@ -14,6 +14,8 @@ use anyhow::Context as _;
 
 use crate::store::{resolve_data_dir, Store};
 
+pub mod dataset;
+pub mod measure;
 pub mod session;
 pub mod sessions;
 pub mod station;
