@@ -282,7 +282,8 @@ pub struct DeviceReading {
     /// Id of the tape device that took it (stored as the same 64 bits in
     /// a signed SQLite INTEGER).
     pub device_id: u64,
-    /// Boot counter of the device; sequence numbers restart each boot.
+    /// Boot id of the device (differs on every boot); sequence numbers
+    /// restart at [`FIRST_SEQ`] with each boot.
     pub boot_id: u32,
     /// Sequence number within the boot.
     pub seq: u32,

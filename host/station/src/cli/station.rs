@@ -74,7 +74,7 @@ pub struct Args {
 pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     let store = global.open_store()?;
     let session = choose_session(&store, &args)?;
-    let plan = plan(&store, &session, &args)?;
+    let plan = plan(&store, &session, &args.measurements)?;
     println!(
         "session {} customer {} set {} ({} readings so far); store {}",
         session.id,
@@ -94,7 +94,13 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         .enable_all()
         .build()
         .context("starting the async runtime")?;
-    runtime.block_on(run_link(args, store, session.id, plan))
+    let options = RecordOptions {
+        port: args.port.clone(),
+        baud: args.baud,
+        live: args.live,
+        exit_when_complete: args.exit_when_complete,
+    };
+    runtime.block_on(record(options, store, session.id, plan))
 }
 
 /// One measurement still to take: its name and what to tell the operator.
@@ -106,12 +112,17 @@ pub struct Planned {
     pub label: String,
 }
 
-/// The measurements still to take in this session, in order, or `None` when
-/// readings are simply numbered. Names the session already has are skipped,
-/// so a resumed session continues where it stopped.
-pub fn plan(store: &Store, session: &Session, args: &Args) -> anyhow::Result<Option<Vec<Planned>>> {
-    let all: Vec<Planned> = if !args.measurements.is_empty() {
-        args.measurements
+/// The measurements still to take in this session, in order: `measurements`
+/// if not empty, else the session's measurement set, else `None` (readings
+/// are numbered). Names the session already has are skipped, so a resumed
+/// session continues where it stopped.
+pub fn plan(
+    store: &Store,
+    session: &Session,
+    measurements: &[String],
+) -> anyhow::Result<Option<Vec<Planned>>> {
+    let all: Vec<Planned> = if !measurements.is_empty() {
+        measurements
             .iter()
             .map(|n| Planned {
                 name: n.trim().to_string(),
@@ -175,12 +186,32 @@ fn choose_session(store: &Store, args: &Args) -> anyhow::Result<Session> {
     Ok(session)
 }
 
-async fn run_link(
-    args: Args,
+/// How [`record`] runs.
+#[derive(Clone, Debug)]
+pub struct RecordOptions {
+    /// Serial port path.
+    pub port: PathBuf,
+    /// Baud rate (ignored by pseudo-terminals).
+    pub baud: u32,
+    /// Print live values.
+    pub live: bool,
+    /// Mark the session done and return once `plan` is fully committed.
+    pub exit_when_complete: bool,
+}
+
+/// Runs the link on `options.port` for `session`, printing one line per
+/// event on stdout (the format described in the module docs), until Ctrl-C,
+/// completion (with `exit_when_complete`) or a version mismatch (an error).
+/// `plan` names the readings in order (see [`plan`]); `None` numbers them.
+/// Must run inside a tokio runtime with time, I/O and signals enabled. The
+/// `demo` command reuses this with a simulated tape's port.
+pub async fn record(
+    options: RecordOptions,
     store: Store,
     session: SessionId,
     plan: Option<Vec<Planned>>,
 ) -> anyhow::Result<()> {
+    let args = options;
     let config = LinkConfig {
         baud_rate: args.baud,
         ..LinkConfig::default()
