@@ -228,7 +228,8 @@ pub fn local_change_labels() -> &'static [String] {
     })
 }
 
-/// Index of a local-change label, or an error suggesting the closest label.
+/// Index of a local-change label, or an error suggesting the closest label
+/// (edit distance counting a swap of two neighbouring letters as one edit).
 pub(crate) fn local_change_index(label: &str) -> Result<usize, PhenotypeError> {
     let labels = local_change_labels();
     if let Some(i) = labels.iter().position(|l| l == label) {
@@ -236,7 +237,7 @@ pub(crate) fn local_change_index(label: &str) -> Result<usize, PhenotypeError> {
     }
     let suggestion = labels
         .iter()
-        .min_by_key(|l| strsim::levenshtein(l, label))
+        .min_by_key(|l| strsim::osa_distance(l, label))
         .cloned()
         .unwrap_or_default();
     Err(PhenotypeError::UnknownLocalChange {

@@ -723,10 +723,10 @@ pub fn glb_bytes(mesh: &Mesh, name: &str) -> Result<Vec<u8>, MeshIoError> {
         "buffers": [{ "byteLength": bin.len() }]
     });
     let mut json = serde_json::to_vec(&json).expect("a JSON value always serialises");
-    while json.len() % 4 != 0 {
+    while json.len() & 3 != 0 {
         json.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while bin.len() & 3 != 0 {
         bin.push(0);
     }
     let total = 12 + 8 + json.len() + 8 + bin.len();

@@ -8,6 +8,10 @@
 //! The [`Topology`] (edges, one-rings, face adjacency) depends only on the
 //! faces, so it is computed once per template and shared (through an
 //! [`std::sync::Arc`]) by every body with that topology.
+//!
+//! [`geometry`] holds normals, areas, volume, bounding box, connected
+//! components and the triangle-quality check; [`io`] reads and writes OBJ and
+//! PLY and writes binary glTF (converted to glTF's Y-up frame).
 
 use std::sync::Arc;
 
@@ -298,6 +302,17 @@ mod tests {
         assert_eq!(t.edge_index(3, 1), t.edge_index(1, 3));
         assert!(t.edge_index(1, 3).is_some());
         assert_eq!(m.flat().len(), 12);
+    }
+
+    #[test]
+    fn non_manifold_edge_is_counted() {
+        // Three triangles share edge {0, 1}.
+        let v = vec![[0.0; 3]; 5];
+        let m = Mesh::from_faces(v, vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]]).unwrap();
+        let e = m.topology.edge_index(0, 1).unwrap();
+        assert_eq!(m.topology.edge_face_count(e), 3);
+        assert_eq!(m.topology.edge_faces(e).count(), 2);
+        assert!(!m.topology.is_closed());
     }
 
     #[test]
