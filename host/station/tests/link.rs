@@ -513,3 +513,101 @@ async fn waits_for_a_port_that_does_not_exist_yet() {
     })
     .await;
 }
+
+#[tokio::test]
+async fn a_device_reboot_starts_a_new_sequence_in_the_same_session() {
+    let port = Port::new();
+    let mut dev = port.plug();
+    let mut rig = rig(&port.path);
+    rig.link.set_session(Some(rig.session));
+    rig.link.set_naming(Naming::Numbered);
+    dev.handshake(20, PROTOCOL_VERSION).await;
+    dev.reading(20, 0, 100).await;
+    assert_eq!(dev.ack().await, (20, 0));
+    dev.reading(20, 1, 200).await;
+    assert_eq!(dev.ack().await, (20, 1));
+    // Power cycle: a new boot id, numbering from 0 again.
+    dev.send(DeviceMsg::Hello(hello(21, PROTOCOL_VERSION)))
+        .await;
+    let ev = wait_for(
+        &mut rig.events,
+        "connected to the new boot",
+        |e| matches!(e, LinkEvent::Connected(h) if h.boot_id == 21),
+    )
+    .await;
+    assert!(matches!(ev, LinkEvent::Connected(_)));
+    dev.reading(21, 0, 300).await;
+    assert_eq!(dev.ack().await, (21, 0));
+    // A stale retransmission from the old boot is not taken for the new one.
+    dev.reading(20, 1, 200).await;
+    assert_eq!(dev.ack_within(QUIET).await, None);
+    assert_eq!(
+        values(&rig.store, rig.session),
+        vec![
+            ("reading-1".into(), 0, 100),
+            ("reading-2".into(), 1, 200),
+            ("reading-3".into(), 0, 300)
+        ]
+    );
+}
+
+#[tokio::test]
+async fn a_silent_device_is_pinged_then_dropped_and_reopened() {
+    let port = Port::new();
+    let mut dev = port.plug();
+    let data = tempfile::tempdir().unwrap();
+    let store = Store::open(data.path()).unwrap();
+    let config = LinkConfig {
+        reconnect_poll: Duration::from_millis(50),
+        silence_timeout: Duration::from_millis(300),
+        ..LinkConfig::default()
+    };
+    let (_link, mut events, _task) = Link::spawn(&port.path, config, store);
+    dev.handshake(1, PROTOCOL_VERSION).await;
+    // The device goes quiet: the link pings it...
+    let deadline = tokio::time::Instant::now() + WAIT;
+    loop {
+        let left = deadline.saturating_duration_since(tokio::time::Instant::now());
+        match dev.recv_within(left).await.expect("no ping") {
+            HostMsg::Ping { .. } => break,
+            _ => continue,
+        }
+    }
+    // ...then, still silent, gives the connection up and opens the port again.
+    let ev = wait_for(&mut events, "disconnected", |e| {
+        matches!(e, LinkEvent::Disconnected { .. })
+    })
+    .await;
+    let LinkEvent::Disconnected { reason, .. } = ev else {
+        unreachable!()
+    };
+    assert!(reason.contains("no data"), "{reason}");
+    wait_for(&mut events, "reopened", |e| {
+        matches!(e, LinkEvent::PortOpened { .. })
+    })
+    .await;
+    assert!(matches!(dev.recv().await, HostMsg::Hello(_)));
+}
+
+#[tokio::test]
+async fn a_second_station_cannot_take_the_port() {
+    let port = Port::new();
+    let _dev = port.plug();
+    let mut first = rig(&port.path);
+    wait_for(&mut first.events, "first opened", |e| {
+        matches!(e, LinkEvent::PortOpened { .. })
+    })
+    .await;
+    let mut second = rig(&port.path);
+    let ev = wait_for(&mut second.events, "second refused", |e| {
+        matches!(
+            e,
+            LinkEvent::WaitingForPort { .. } | LinkEvent::PortOpened { .. }
+        )
+    })
+    .await;
+    assert!(
+        matches!(ev, LinkEvent::WaitingForPort { .. }),
+        "second link opened a port in use: {ev:?}"
+    );
+}
