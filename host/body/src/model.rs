@@ -235,7 +235,7 @@ struct MacroIds {
 ///
 /// Thread-safe and immutable after [`BodyModel::load`]; share it by reference
 /// or use [`BodyModel::shared`].
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct BodyModel {
     /// Internal vertex order -> base-mesh index (kept vertices first, in output order).
     order: Vec<u32>,
@@ -247,6 +247,19 @@ pub struct BodyModel {
     local: Vec<(u32, u32)>,
     topology: Arc<Topology>,
     body_faces: Vec<u32>,
+}
+
+impl std::fmt::Debug for BodyModel {
+    // A summary: the derived form would print tens of megabytes of targets.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BodyModel")
+            .field("vertices", &N_KEPT)
+            .field("base_vertices", &self.base.len())
+            .field("triangles", &self.topology.faces().len())
+            .field("targets", &self.targets.len())
+            .field("local_changes", &self.local.len())
+            .finish()
+    }
 }
 
 /// Parses a `#`-headed list of whitespace-separated integers, `width` per line.
