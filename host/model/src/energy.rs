@@ -104,19 +104,33 @@ fn seg_len(d: Vec3, axis: Option<Vec3>) -> f64 {
     }
 }
 
-fn add_scaled(grad: &mut [Vec3], v: u32, s: f64, g: Vec3) {
-    let gv = &mut grad[v as usize];
-    gv[0] += s * g[0];
-    gv[1] += s * g[1];
-    gv[2] += s * g[2];
+/// Position of a support point in flat positions `p` (`[x0, y0, z0, x1, ...]`).
+#[inline]
+fn point(p: &[f64], q: &SupportPoint) -> Vec3 {
+    let (a, b) = (3 * q.a as usize, 3 * q.b as usize);
+    let s = 1.0 - q.t;
+    [
+        s * p[a] + q.t * p[b],
+        s * p[a + 1] + q.t * p[b + 1],
+        s * p[a + 2] + q.t * p[b + 2],
+    ]
 }
 
-/// `E_m = sum of the terms' energies` at positions `p`; if `grad` is given
-/// (same length as `p`), adds `dE_m/dp` to it.
-pub fn measurement_energy(terms: &[SegmentTerm], p: &[Vec3], mut grad: Option<&mut [Vec3]>) -> f64 {
+#[inline]
+fn add_scaled(grad: &mut [f64], v: u32, s: f64, g: Vec3) {
+    let i = 3 * v as usize;
+    grad[i] += s * g[0];
+    grad[i + 1] += s * g[1];
+    grad[i + 2] += s * g[2];
+}
+
+/// `E_m = sum of the terms' energies` at flat positions `p`
+/// (`[x0, y0, z0, x1, ...]`, length 3V); if `grad` is given (same length),
+/// adds `dE_m/dp` to it.
+pub fn measurement_energy(terms: &[SegmentTerm], p: &[f64], mut grad: Option<&mut [f64]>) -> f64 {
     let mut e = 0.0;
     for term in terms {
-        let d = sub(term.p1.position(p), term.p0.position(p));
+        let d = sub(point(p, &term.p1), point(p, &term.p0));
         let (len2, dlen2_half) = match term.axis {
             Some(n) => {
                 let nd = dot(n, d);
@@ -139,29 +153,29 @@ pub fn measurement_energy(terms: &[SegmentTerm], p: &[Vec3], mut grad: Option<&m
     e
 }
 
-/// `E_s = sum_i sum_{j in N(i)} |D_i - D_j|^2`, `D = p - p_ref`, over the
+/// `E_s = sum_i sum_{j in N(i)} |D_i - D_j|^2`, `D = p - p_ref` (flat, 3V), over the
 /// undirected `edges` (each counted twice, as in the paper's double sum); if
 /// `grad` is given, adds `scale * dE_s/dp` to it and returns `E_s` unscaled.
 pub fn smoothness_energy(
     edges: &[[u32; 2]],
-    p: &[Vec3],
-    p_ref: &[Vec3],
-    mut grad: Option<(&mut [Vec3], f64)>,
+    p: &[f64],
+    p_ref: &[f64],
+    mut grad: Option<(&mut [f64], f64)>,
 ) -> f64 {
     let mut e = 0.0;
     for &[a, b] in edges {
-        let (a, b) = (a as usize, b as usize);
+        let (a, b) = (3 * a as usize, 3 * b as usize);
         let dd = [
-            (p[a][0] - p_ref[a][0]) - (p[b][0] - p_ref[b][0]),
-            (p[a][1] - p_ref[a][1]) - (p[b][1] - p_ref[b][1]),
-            (p[a][2] - p_ref[a][2]) - (p[b][2] - p_ref[b][2]),
+            (p[a] - p_ref[a]) - (p[b] - p_ref[b]),
+            (p[a + 1] - p_ref[a + 1]) - (p[b + 1] - p_ref[b + 1]),
+            (p[a + 2] - p_ref[a + 2]) - (p[b + 2] - p_ref[b + 2]),
         ];
         e += 2.0 * dot(dd, dd);
         if let Some((g, scale)) = grad.as_mut() {
             let s = 4.0 * *scale;
             for c in 0..3 {
-                g[a][c] += s * dd[c];
-                g[b][c] -= s * dd[c];
+                g[a + c] += s * dd[c];
+                g[b + c] -= s * dd[c];
             }
         }
     }
@@ -224,10 +238,10 @@ pub(crate) mod tests {
 
     fn check_terms(terms: &[SegmentTerm], p: &[Vec3]) {
         check_gradient(
-            &|x| measurement_energy(terms, x, None),
+            &|x| measurement_energy(terms, x.as_flattened(), None),
             &|x| {
                 let mut g = vec![[0.0; 3]; x.len()];
-                measurement_energy(terms, x, Some(&mut g));
+                measurement_energy(terms, x.as_flattened(), Some(g.as_flattened_mut()));
                 g
             },
             p,
@@ -246,7 +260,7 @@ pub(crate) mod tests {
         assert_eq!(terms.len(), 1);
         let l2 = dot(sub(p[1], p[0]), sub(p[1], p[0]));
         let want = 2.0 * (l2 - 2500.0).powi(2);
-        assert!((measurement_energy(&terms, &p, None) - want).abs() < 1e-9 * want);
+        assert!((measurement_energy(&terms, p.as_flattened(), None) - want).abs() < 1e-9 * want);
         check_terms(&terms, &p);
     }
 
@@ -267,7 +281,7 @@ pub(crate) mod tests {
             .iter()
             .map(|v| [1.3 * v[0], 1.3 * v[1], 1.3 * v[2]])
             .collect();
-        assert!(measurement_energy(&terms, &scaled, None) < 1e-6);
+        assert!(measurement_energy(&terms, scaled.as_flattened(), None) < 1e-6);
         check_terms(&terms, &p);
     }
 
@@ -305,7 +319,10 @@ pub(crate) mod tests {
         let terms = segment_terms(&support, &p, 10.0, 1.0).unwrap();
         let d = sub(support.points[1].position(&p), p[0]);
         let want = (dot(n, d).powi(2) - 100.0).powi(2);
-        assert!((measurement_energy(&terms, &p, None) - want).abs() < 1e-9 * want.max(1.0));
+        assert!(
+            (measurement_energy(&terms, p.as_flattened(), None) - want).abs()
+                < 1e-9 * want.max(1.0)
+        );
         check_terms(&terms, &p);
     }
 
@@ -339,19 +356,26 @@ pub(crate) mod tests {
                 want += dot(d, d);
             }
         }
-        let got = smoothness_energy(&edges, &p, &p_ref, None);
+        let got = smoothness_energy(&edges, p.as_flattened(), p_ref.as_flattened(), None);
         assert!((got - want).abs() < 1e-9 * want);
         // A rigid translation of the reference costs nothing.
         let moved: Vec<Vec3> = p_ref
             .iter()
             .map(|v| [v[0] + 3.0, v[1] - 1.0, v[2]])
             .collect();
-        assert!(smoothness_energy(&edges, &moved, &p_ref, None) < 1e-18);
+        assert!(
+            smoothness_energy(&edges, moved.as_flattened(), p_ref.as_flattened(), None) < 1e-18
+        );
         check_gradient(
-            &|x| smoothness_energy(&edges, x, &p_ref, None),
+            &|x| smoothness_energy(&edges, x.as_flattened(), p_ref.as_flattened(), None),
             &|x| {
                 let mut g = vec![[0.0; 3]; x.len()];
-                smoothness_energy(&edges, x, &p_ref, Some((&mut g, 1.0)));
+                smoothness_energy(
+                    &edges,
+                    x.as_flattened(),
+                    p_ref.as_flattened(),
+                    Some((g.as_flattened_mut(), 1.0)),
+                );
                 g
             },
             &p,

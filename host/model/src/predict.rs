@@ -17,8 +17,9 @@
 //! (1 for a reading without tolerance): since `(l^2 - l_t^2)^2 ~ 4 l^2 (l - l_t)^2`,
 //! this is the Gaussian log-likelihood weighting of each reading's error.
 //!
-//! Robustness: a stage that makes the given measurements fit worse (sum of
-//! weighted squared errors) is undone with a warning; a non-finite energy ends
+//! Robustness: a stage that ends with a higher `E_m` than it started from
+//! (each stage's `E_m` evaluated with per-segment targets set on its own
+//! shape, so stages compare like for like) is undone with a warning; a non-finite energy ends
 //! an L-BFGS run at its best point; a non-finite final mesh is an error.
 
 use std::time::{Duration, Instant};
@@ -26,8 +27,8 @@ use std::time::{Duration, Instant};
 use tapeshape_measure::Measured;
 use tapeshape_mesh::{Topology, Vec3};
 
-use crate::energy::{segment_terms, SegmentTerm};
-use crate::refine::{minimise, RunInfo, StopRule, VertexObjective, WeightObjective};
+use crate::energy::{measurement_energy, segment_terms, SegmentTerm};
+use crate::refine::{minimise, LbfgsImpl, RunInfo, StopRule, VertexObjective, WeightObjective};
 use crate::{ModelError, Result, ShapeModel, MM_PER_M};
 
 /// Error type a [`Measurer`] returns.
@@ -99,6 +100,13 @@ pub struct PredictSettings {
     /// L-BFGS stopping rules (paper: 100 iterations, gradient 1e-8, relative
     /// change 1e8 eps).
     pub stop: StopRule,
+    /// L-BFGS implementation of step 1 (K variables; default argmin: its
+    /// More-Thuente line search makes better progress on the stiff quartic
+    /// energies and its per-iteration allocations cost nothing at this size).
+    pub step1_solver: LbfgsImpl,
+    /// L-BFGS implementation of step 2 (3V variables; default the built-in
+    /// allocation-free one, see [`crate::refine`]).
+    pub step2_solver: LbfgsImpl,
     /// A reading with this tolerance (metres) gets energy weight 1 (default 1 mm).
     pub reference_tolerance: f64,
     /// Warn about any given measurement whose final error exceeds this (mm).
@@ -112,6 +120,8 @@ impl Default for PredictSettings {
             lambda: 0.1,
             s: 3,
             stop: StopRule::default(),
+            step1_solver: LbfgsImpl::Argmin,
+            step2_solver: LbfgsImpl::Builtin,
             reference_tolerance: 0.001,
             warn_error_mm: 5.0,
         }
@@ -442,12 +452,14 @@ impl ShapeModel {
         terms
     }
 
-    fn weighted_sq_error(given: &[Given], measured: &[Measured]) -> f64 {
-        given
-            .iter()
-            .zip(measured)
-            .map(|(g, m)| g.weight * (m.value * MM_PER_M - g.target_mm).powi(2))
-            .sum()
+    /// `E_m` of a shape with its per-segment targets set on that shape (the
+    /// energy a round starts from): the paper's objective, evaluated the same
+    /// way at every stage, so stages can be compared.
+    fn stage_energy(&self, given: &[Given], measured: &[Measured], x: &[Vec3]) -> f64 {
+        let x_mm = to_mm(x);
+        let mut ignored = Vec::new();
+        let terms = self.build_terms(given, measured, &x_mm, &mut ignored, "");
+        measurement_energy(&terms, x_mm.as_flattened(), None)
     }
 
     /// Step-1 objective over the vertices the terms touch.
@@ -470,7 +482,7 @@ impl ShapeModel {
             }
         }
         let mut rows = Vec::with_capacity(globals.len() * 3 * k);
-        let mut base = Vec::with_capacity(globals.len());
+        let mut base = Vec::with_capacity(3 * globals.len());
         for &g in &globals {
             let g = g as usize;
             for c in 0..3 {
@@ -482,11 +494,7 @@ impl ShapeModel {
                         .map(|(a, s)| a * s * MM_PER_M),
                 );
             }
-            base.push([
-                self.pca.mean[3 * g] * MM_PER_M,
-                self.pca.mean[3 * g + 1] * MM_PER_M,
-                self.pca.mean[3 * g + 2] * MM_PER_M,
-            ]);
+            base.extend((0..3).map(|c| self.pca.mean[3 * g + c] * MM_PER_M));
         }
         WeightObjective {
             k,
@@ -589,7 +597,7 @@ impl ShapeModel {
                 break;
             }
             let obj = self.localise(&terms);
-            match minimise(&obj, w.clone(), &settings.stop) {
+            match minimise(&obj, w.clone(), &settings.stop, settings.step1_solver) {
                 Ok((w_new, info)) => {
                     w = w_new;
                     step1_runs.push(info);
@@ -604,12 +612,12 @@ impl ShapeModel {
         let mut x1 = self.shape(&w);
         let mut meas1 = self.measure_checked(measurer, &x1, &which)?;
         let (err_start, err1) = (
-            Self::weighted_sq_error(&given, &meas_start),
-            Self::weighted_sq_error(&given, &meas1),
+            self.stage_energy(&given, &meas_start, &x_start),
+            self.stage_energy(&given, &meas1, &x1),
         );
         if err1 > err_start || err1.is_nan() {
             warnings.push(format!(
-                "step 1 fitted the measurements worse than the start (weighted squared error {err1:.3} vs {err_start:.3} mm^2): kept the start shape"
+                "step 1 ended with a higher measurement energy than the start (E_m {err1:.4e} vs {err_start:.4e} mm^4): kept the start shape"
             ));
             w = w_start.clone();
             x1 = x_start.clone();
@@ -639,10 +647,10 @@ impl ShapeModel {
             let obj = VertexObjective {
                 terms,
                 edges: topology.edges(),
-                reference: &reference_mm,
+                reference: reference_mm.as_flattened(),
                 lambda: settings.lambda,
             };
-            match minimise(&obj, x_mm.clone(), &settings.stop) {
+            match minimise(&obj, x_mm.clone(), &settings.stop, settings.step2_solver) {
                 Ok((x_new, info)) => {
                     x_mm = x_new;
                     step2_runs.push(info);
@@ -663,11 +671,11 @@ impl ShapeModel {
             ));
         }
         let mut meas2 = self.measure_checked(measurer, &x2, &which)?;
-        let err2 = Self::weighted_sq_error(&given, &meas2);
-        let err1 = Self::weighted_sq_error(&given, &meas1);
+        let err2 = self.stage_energy(&given, &meas2, &x2);
+        let err1 = self.stage_energy(&given, &meas1, &x1);
         if err2 > err1 || err2.is_nan() {
             warnings.push(format!(
-                "step 2 fitted the measurements worse than step 1 (weighted squared error {err2:.3} vs {err1:.3} mm^2): kept the step-1 shape"
+                "step 2 ended with a higher measurement energy than step 1 (E_m {err2:.4e} vs {err1:.4e} mm^4): kept the step-1 shape"
             ));
             x2 = x1.clone();
             meas2 = meas1.clone();
