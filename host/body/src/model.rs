@@ -121,6 +121,88 @@ impl Param {
     pub fn local(label: &str) -> Result<Param, PhenotypeError> {
         local_change_index(label).map(Param::Local)
     }
+
+    /// The name: the [`Phenotype`] field name, or the local-change label
+    /// (`"?"` for a local index that does not exist).
+    pub fn name(self) -> &'static str {
+        match self {
+            Param::Gender => "gender",
+            Param::Age => "age",
+            Param::Muscle => "muscle",
+            Param::Weight => "weight",
+            Param::Height => "height",
+            Param::Proportions => "proportions",
+            Param::Cupsize => "cupsize",
+            Param::Firmness => "firmness",
+            Param::African => "african",
+            Param::Asian => "asian",
+            Param::Caucasian => "caucasian",
+            Param::Local(i) => LocalChanges::labels().get(i).map_or("?", String::as_str),
+        }
+    }
+
+    /// The accepted range `(min, max)`: [0, 1] for most macro parameters, the
+    /// adult anny-age range for age, [0, +inf) for race weights (their sum
+    /// must stay positive), [-1, 1] for local changes.
+    pub fn range(self) -> (f64, f64) {
+        match self {
+            Param::Age => crate::phenotype::age_range(),
+            Param::African | Param::Asian | Param::Caucasian => (0.0, f64::INFINITY),
+            Param::Local(_) => (-1.0, 1.0),
+            _ => (0.0, 1.0),
+        }
+    }
+
+    /// The current value of this parameter.
+    pub fn get(self, ph: &Phenotype, lc: &LocalChanges) -> f64 {
+        match self {
+            Param::Gender => ph.gender,
+            Param::Age => ph.age,
+            Param::Muscle => ph.muscle,
+            Param::Weight => ph.weight,
+            Param::Height => ph.height,
+            Param::Proportions => ph.proportions,
+            Param::Cupsize => ph.cupsize,
+            Param::Firmness => ph.firmness,
+            Param::African => ph.african,
+            Param::Asian => ph.asian,
+            Param::Caucasian => ph.caucasian,
+            Param::Local(i) => LocalChanges::labels()
+                .get(i)
+                .map_or(0.0, |label| lc.get(label)),
+        }
+    }
+
+    /// Sets this parameter. Macro values are checked when a body is
+    /// generated ([`Phenotype::validate`]); a local change is checked here
+    /// (unknown index or value outside [-1, 1] is an error).
+    pub fn set(
+        self,
+        ph: &mut Phenotype,
+        lc: &mut LocalChanges,
+        value: f64,
+    ) -> Result<(), BodyError> {
+        match self {
+            Param::Gender => ph.gender = value,
+            Param::Age => ph.age = value,
+            Param::Muscle => ph.muscle = value,
+            Param::Weight => ph.weight = value,
+            Param::Height => ph.height = value,
+            Param::Proportions => ph.proportions = value,
+            Param::Cupsize => ph.cupsize = value,
+            Param::Firmness => ph.firmness = value,
+            Param::African => ph.african = value,
+            Param::Asian => ph.asian = value,
+            Param::Caucasian => ph.caucasian = value,
+            Param::Local(i) => {
+                let label = LocalChanges::labels()
+                    .get(i)
+                    .ok_or(BodyError::BadParam(i))?;
+                lc.set(label, value)?;
+            }
+        }
+        Ok(())
+    }
 }
 
 /// One sparse target entry: internal vertex index and offset in 1e-4 m, station axes.

@@ -220,27 +220,27 @@ fn bad_parameters_are_clear_errors() {
 }
 
 fn with(ph: &Phenotype, lc: &LocalChanges, p: Param, delta: f64) -> (Phenotype, LocalChanges) {
-    let mut ph = *ph;
-    let mut lc = lc.clone();
-    match p {
-        Param::Gender => ph.gender += delta,
-        Param::Age => ph.age += delta,
-        Param::Muscle => ph.muscle += delta,
-        Param::Weight => ph.weight += delta,
-        Param::Height => ph.height += delta,
-        Param::Proportions => ph.proportions += delta,
-        Param::Cupsize => ph.cupsize += delta,
-        Param::Firmness => ph.firmness += delta,
-        Param::African => ph.african += delta,
-        Param::Asian => ph.asian += delta,
-        Param::Caucasian => ph.caucasian += delta,
-        Param::Local(i) => {
-            let label = &LocalChanges::labels()[i];
-            let v = lc.get(label) + delta;
-            lc.set(label, v).unwrap();
-        }
-    }
+    let (mut ph, mut lc) = (*ph, lc.clone());
+    let v = p.get(&ph, &lc) + delta;
+    p.set(&mut ph, &mut lc, v).unwrap();
+    assert_eq!(p.get(&ph, &lc), v);
     (ph, lc)
+}
+
+#[test]
+fn param_names_and_ranges() {
+    assert_eq!(Param::Weight.name(), "weight");
+    assert_eq!(
+        Param::local("nose-hump-incr").unwrap().name(),
+        "nose-hump-incr"
+    );
+    assert_eq!(Param::Local(9999).name(), "?");
+    assert_eq!(Param::Height.range(), (0.0, 1.0));
+    let (lo, hi) = Param::Age.range();
+    assert!((lo - 0.77).abs() < 1e-12 && (hi - 0.926087).abs() < 1e-6);
+    let (mut ph, mut lc) = (Phenotype::default(), LocalChanges::new());
+    assert!(Param::Local(9999).set(&mut ph, &mut lc, 0.5).is_err());
+    assert!(Param::Local(0).set(&mut ph, &mut lc, 1.5).is_err());
 }
 
 #[test]
