@@ -64,7 +64,10 @@ fn main() -> anyhow::Result<()> {
     )?;
     write_atomic(&crate_dir.join("data/parts.toml"), &anatomy::parts_toml(&d))?;
 
-    // Picture.
+    // Picture: front, right and back views of the derivation body with parts
+    // coloured and landmarks as dots (green mid-line, red right, blue left;
+    // labels on mid-line and right-side landmarks only, to keep it readable),
+    // face close-ups beside them and a colour legend below.
     let mesh = Mesh::from_faces(d.body.clone(), d.triangles.clone())?;
     let colours: Vec<[u8; 3]> = d
         .triangle_part
@@ -77,19 +80,15 @@ fn main() -> anyhow::Result<()> {
         .map(|l| Marker {
             position: l.position,
             colour: landmark_colour(&l.name),
-            label: Some(
-                l.name
-                    .trim_end_matches("_right")
-                    .trim_end_matches("_left")
-                    .to_string(),
-            ),
+            label: (!l.name.ends_with("_left"))
+                .then(|| l.name.trim_end_matches("_right").to_string()),
         })
         .collect();
-    let body_panel = |view| Panel {
+    let body_panel = |view, width| Panel {
         view,
         region: None,
-        width: 560,
-        height: 1100,
+        width,
+        height: 960,
         marker_radius: 3,
         labels: true,
     };
@@ -99,34 +98,53 @@ fn main() -> anyhow::Result<()> {
         .find(|l| l.name == "vertex")
         .map(|l| l.position);
     let top = head.map_or(1.7, |p| p[2]);
-    let face_region = ([-0.11, -0.13, top - 0.27], [0.11, 0.13, top + 0.01]);
+    let face_region = ([-0.12, -0.1, top - 0.26], [0.12, 0.2, top + 0.01]);
     let face_panel = |view| Panel {
         view,
         region: Some(face_region),
-        width: 520,
-        height: 550,
+        width: 480,
+        height: 480,
         marker_radius: 4,
         labels: true,
     };
     let colouring = Colouring::PerFace(&colours);
-    let row1 = render::render_panels(
+    let bodies = render::render_panels(
         &mesh,
         &colouring,
         &markers,
         &[
-            body_panel(View::Front),
-            body_panel(View::Right),
-            body_panel(View::Back),
+            body_panel(View::Front, 600),
+            body_panel(View::Right, 420),
+            body_panel(View::Back, 600),
         ],
     )?;
-    let faces = render::render_panels(
-        &mesh,
-        &colouring,
-        &markers,
-        &[face_panel(View::Front), face_panel(View::Right)],
-    )?;
-    let img = render::hstack(&[row1, faces]);
+    let faces = render::vstack(&[
+        render::render_panel(&mesh, &colouring, &markers, &face_panel(View::Front))?,
+        render::render_panel(&mesh, &colouring, &markers, &face_panel(View::Right))?,
+    ]);
+    let top_row = render::hstack(&[bodies, faces]);
+    let mut legend = image::RgbImage::from_pixel(top_row.width(), 70, image::Rgb([255, 255, 255]));
+    for (i, name) in derive::PART_NAMES.iter().enumerate() {
+        let (x, y) = (10 + (i % 8) as i64 * 230, 8 + (i / 8) as i64 * 22);
+        render::fill_rect(&mut legend, x, y, 16, 16, PART_COLOURS[i]);
+        render::draw_text(&mut legend, x + 22, y + 4, name, [0, 0, 0], 1);
+    }
+    for (i, (what, c)) in [
+        ("mid-line landmark", [20, 170, 40]),
+        ("right-side landmark (labelled)", [230, 30, 30]),
+        ("left-side landmark (mirror)", [30, 90, 255]),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let (x, y) = (10 + i as i64 * 420, 54);
+        render::fill_rect(&mut legend, x, y, 10, 10, c);
+        render::draw_text(&mut legend, x + 16, y + 1, what, [0, 0, 0], 1);
+    }
+    let img = render::vstack(&[top_row, legend]);
     render::save_png(&img, &crate_dir.join("../../docs/anatomy.png"))?;
+    write_atomic(&crate_dir.join("../../docs/anatomy.md"), &docs(&d))?;
+
     if let Some(dir) = std::env::args().nth(2).map(PathBuf::from) {
         // Close-ups for checking the rules by eye: region centre, half size, views.
         let lm = |n: &str| {
@@ -166,9 +184,49 @@ fn main() -> anyhow::Result<()> {
         }
     }
     println!(
-        "wrote {} landmarks, {} parts, docs/anatomy.png",
+        "wrote {} landmarks, {} parts, docs/anatomy.md, docs/anatomy.png",
         d.landmarks.len(),
         derive::PART_NAMES.len()
     );
     Ok(())
 }
+
+/// `docs/anatomy.md`, generated so that it always matches the data files.
+fn docs(d: &derive::Derived) -> String {
+    let mut s = String::from(DOC_HEAD);
+    s.push_str("\n## Landmarks\n\n");
+    s.push_str(
+        "Heights are on the derivation body (stature 1,694 mm), millimetres above the floor. \
+         `_left` landmarks are the exact mirror partners of the `_right` ones and are not listed.\n\n",
+    );
+    s.push_str("| name | vertex | base vertex | height mm | rule |\n|---|---|---|---|---|\n");
+    for l in d.landmarks.iter().filter(|l| !l.name.ends_with("_left")) {
+        s.push_str(&format!(
+            "| `{}` | {} | {} | {:.0} | {} |\n",
+            l.name,
+            l.vertex,
+            l.base_vertex,
+            l.position[2] * 1e3,
+            l.rule.replace('|', "/")
+        ));
+    }
+    s.push_str(
+        "\n## Parts\n\n| part | triangles | bones (largest summed weight) |\n|---|---|---|\n",
+    );
+    for (i, name) in derive::PART_NAMES.iter().enumerate() {
+        let n = d
+            .triangle_part
+            .iter()
+            .filter(|p| **p == Some(i as u8))
+            .count();
+        let stem = name.trim_end_matches("_left").trim_end_matches("_right");
+        let bones = derive::BONE_RULES
+            .iter()
+            .find(|(b, _)| *b == stem)
+            .map_or("", |(_, b)| *b);
+        s.push_str(&format!("| `{name}` | {n} | {bones} |\n"));
+    }
+    s
+}
+
+const DOC_HEAD: &str = include_str!("anatomy_doc_head.md");

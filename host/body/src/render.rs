@@ -394,6 +394,30 @@ pub fn hstack(imgs: &[RgbImage]) -> RgbImage {
     out
 }
 
+/// Places images one above the other (left aligned, white fill).
+pub fn vstack(imgs: &[RgbImage]) -> RgbImage {
+    let w = imgs.iter().map(|i| i.width()).max().unwrap_or(1);
+    let h: u32 = imgs.iter().map(|i| i.height()).sum();
+    let mut out = RgbImage::from_pixel(w, h.max(1), Rgb([255, 255, 255]));
+    let mut y0 = 0;
+    for i in imgs {
+        for (x, y, p) in i.enumerate_pixels() {
+            out.put_pixel(x, y0 + y, *p);
+        }
+        y0 += i.height();
+    }
+    out
+}
+
+/// Fills the rectangle `[x, x + w) x [y, y + h)` (clipped to the image).
+pub fn fill_rect(img: &mut RgbImage, x: i64, y: i64, w: i64, h: i64, colour: [u8; 3]) {
+    for yy in y..y + h {
+        for xx in x..x + w {
+            put(img, xx, yy, colour);
+        }
+    }
+}
+
 /// Saves `img` as PNG at `path`, writing a temporary file in the same folder
 /// first and renaming it, so a reader never sees a half-written picture.
 pub fn save_png(img: &RgbImage, path: &Path) -> Result<(), RenderError> {
@@ -405,4 +429,182 @@ pub fn save_png(img: &RgbImage, path: &Path) -> Result<(), RenderError> {
     img.save_with_format(&tmp, image::ImageFormat::Png)
         .map_err(|e| err(&e))?;
     std::fs::rename(&tmp, path).map_err(|e| err(&e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Axis-aligned box [lo, hi]^3 as 12 outward-wound triangles.
+    fn cube(lo: f64, hi: f64) -> Mesh {
+        let v: Vec<Vec3> = (0..8)
+            .map(|i| {
+                [
+                    if i & 1 == 0 { lo } else { hi },
+                    if i & 2 == 0 { lo } else { hi },
+                    if i & 4 == 0 { lo } else { hi },
+                ]
+            })
+            .collect();
+        let quads = [
+            [0, 2, 3, 1], // z = lo (normal -z)
+            [4, 5, 7, 6], // z = hi
+            [0, 1, 5, 4], // y = lo
+            [2, 6, 7, 3], // y = hi
+            [0, 4, 6, 2], // x = lo
+            [1, 3, 7, 5], // x = hi
+        ];
+        let f = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        Mesh::from_faces(v, f).unwrap()
+    }
+
+    fn panel(view: View) -> Panel {
+        Panel {
+            view,
+            region: Some(([-1.0; 3], [1.0; 3])),
+            width: 100,
+            height: 100,
+            marker_radius: 2,
+            labels: false,
+        }
+    }
+
+    #[test]
+    fn cube_covers_its_projection_and_nothing_else() {
+        let m = cube(-0.5, 0.5);
+        let img = render_panel(
+            &m,
+            &Colouring::Uniform([255, 0, 0]),
+            &[],
+            &panel(View::Front),
+        )
+        .unwrap();
+        // Region [-1, 1] fills 92% of 100 px: the cube spans 46 px around the centre.
+        let px = |x: u32, y: u32| img.get_pixel(x, y).0;
+        assert_eq!(px(2, 2), [255, 255, 255]);
+        assert_eq!(px(50, 10), [255, 255, 255]);
+        let c = px(50, 50);
+        assert!(c[0] > 60 && c[1] == 0 && c[2] == 0, "{c:?}");
+        let covered = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+        assert!((covered as i64 - 46 * 46).abs() < 2 * 46 + 10, "{covered}");
+    }
+
+    #[test]
+    fn nearer_surface_wins_and_views_look_from_the_right_side() {
+        // Two cubes: a red one in front (+y), a blue one behind (-y), overlapping in x/z.
+        let front = cube(-0.3, 0.3);
+        let mut v = front.vertices.clone();
+        let mut f: Vec<[u32; 3]> = front.faces().to_vec();
+        let back = cube(-0.5, 0.5);
+        for p in &back.vertices {
+            v.push([p[0], p[1] - 1.2, p[2]]);
+        }
+        for t in back.faces() {
+            f.push(t.map(|i| i + 8));
+        }
+        let v: Vec<Vec3> = v.iter().map(|p| [p[0], p[1] + 0.4, p[2]]).collect();
+        let m = Mesh::from_faces(v, f).unwrap();
+        let cols: Vec<[u8; 3]> = (0..24)
+            .map(|i| if i < 12 { [255, 0, 0] } else { [0, 0, 255] })
+            .collect();
+        let region = Some(([-1.5; 3], [1.5; 3]));
+        let p = |view| Panel {
+            region,
+            ..panel(view)
+        };
+        let front_img = render_panel(&m, &Colouring::PerFace(&cols), &[], &p(View::Front)).unwrap();
+        let c = front_img.get_pixel(50, 50).0;
+        assert!(c[0] > 0 && c[2] == 0, "front view sees the red cube: {c:?}");
+        let back_img = render_panel(&m, &Colouring::PerFace(&cols), &[], &p(View::Back)).unwrap();
+        let c = back_img.get_pixel(50, 50).0;
+        assert!(c[2] > 0 && c[0] == 0, "back view sees the blue cube: {c:?}");
+        // Side view from the right (+x): front (+y) is on the image's right.
+        let side = render_panel(&m, &Colouring::PerFace(&cols), &[], &p(View::Right)).unwrap();
+        let (right_half, left_half) = (side.get_pixel(62, 50).0, side.get_pixel(30, 50).0);
+        assert!(right_half[0] > 0 && right_half[2] == 0, "{right_half:?}");
+        assert!(left_half[2] > 0 && left_half[0] == 0, "{left_half:?}");
+    }
+
+    #[test]
+    fn markers_show_only_when_visible_and_colours_must_match() {
+        let m = cube(-0.5, 0.5);
+        let marker = |y: f64| Marker {
+            position: [0.0, y, 0.0],
+            colour: [0, 255, 0],
+            label: None,
+        };
+        let on_front = render_panel(
+            &m,
+            &Colouring::Uniform([200; 3]),
+            &[marker(0.5)],
+            &panel(View::Front),
+        )
+        .unwrap();
+        assert_eq!(on_front.get_pixel(50, 50).0, [0, 255, 0]);
+        let hidden = render_panel(
+            &m,
+            &Colouring::Uniform([200; 3]),
+            &[marker(-0.5)],
+            &panel(View::Front),
+        )
+        .unwrap();
+        assert_ne!(hidden.get_pixel(50, 50).0, [0, 255, 0]);
+        let bad = render_panel(
+            &m,
+            &Colouring::PerFace(&[[0; 3]; 3]),
+            &[],
+            &panel(View::Front),
+        );
+        assert!(matches!(
+            bad,
+            Err(RenderError::ColourCount {
+                got: 3,
+                expected: 12,
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn per_vertex_colours_interpolate_and_png_round_trips() {
+        let m = cube(-0.5, 0.5);
+        let cols: Vec<[u8; 3]> = m
+            .vertices
+            .iter()
+            .map(|p| if p[0] < 0.0 { [255, 0, 0] } else { [0, 0, 255] })
+            .collect();
+        let img = render_panel(&m, &Colouring::PerVertex(&cols), &[], &panel(View::Front)).unwrap();
+        // Front view: the body's right (+x) is on the image's left, so blue there.
+        let (l, r, mid) = (
+            img.get_pixel(30, 50).0,
+            img.get_pixel(70, 50).0,
+            img.get_pixel(50, 50).0,
+        );
+        assert!(
+            l[2] > l[0] && r[0] > r[2] && mid[0] > 0 && mid[2] > 0,
+            "{l:?} {r:?} {mid:?}"
+        );
+        let dir = std::env::temp_dir().join(format!("tapeshape-render-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("cube.png");
+        save_png(&img, &path).unwrap();
+        let back = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(back, img);
+        assert!(!path.with_extension("png.tmp").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+        let err = save_png(&img, &dir.join("missing/sub/x.png"));
+        assert!(matches!(err, Err(RenderError::Write { .. })));
+    }
+
+    #[test]
+    fn text_is_drawn_inside_the_image_only() {
+        let mut img = RgbImage::from_pixel(20, 10, Rgb([255, 255, 255]));
+        draw_text(&mut img, 1, 1, "A", [0, 0, 0], 1);
+        assert!(img.pixels().any(|p| p.0 == [0, 0, 0]));
+        draw_text(&mut img, 15, 5, "WWWW\u{e9}", [0, 0, 0], 2); // clipped, no panic
+        draw_text(&mut img, -100, -100, "x", [0, 0, 0], 1);
+    }
 }

@@ -676,7 +676,7 @@ fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
     )?;
     sided.push((
         "tragion",
-        "most lateral head vertex within 10 mm of the lateral line through the jaw bone's head joint (joint-mouth cube, the jaw hinge in front of the ear canal)".into(),
+        "the jaw bone's head joint J (joint-mouth cube) lies on the mid-plane at the height of the ear canal; among head vertices within 10 mm of the transverse line through J (parallel to x), the most lateral one, which lies on the front of the ear at the tragus".into(),
         tragion,
     ));
 
