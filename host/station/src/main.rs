@@ -28,6 +28,8 @@ enum Command {
     Sessions(cli::sessions::Args),
     /// Show, close or delete one session.
     Session(cli::session::Args),
+    /// Record a session from a simulated tape through the real firmware logic and link.
+    Demo(cli::demo::Args),
     /// Take a measurement set (paper34, ansur, quick, face7 or a file) on a body mesh; --help lists the sets.
     Measure(cli::measure::Args),
     /// Make, import and inspect databases of registered bodies (training data).
@@ -41,6 +43,7 @@ fn main() -> ExitCode {
         Command::Station(a) => cli::station::run(a, &args.global),
         Command::Sessions(a) => cli::sessions::run(a, &args.global),
         Command::Session(a) => cli::session::run(a, &args.global),
+        Command::Demo(a) => cli::demo::run(a, &args.global),
         Command::Measure(a) => cli::measure::run(a, &args.global),
         Command::Dataset(a) => cli::dataset::run(a, &args.global),
     };

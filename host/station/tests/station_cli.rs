@@ -162,3 +162,48 @@ async fn unknown_set_is_refused_before_a_session_is_created() {
     let store = Store::open(&data).unwrap();
     assert!(store.list_sessions().unwrap().is_empty());
 }
+
+#[tokio::test]
+async fn demo_stores_exactly_what_the_simulated_tape_confirmed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    let out = tapeshape(&data, &["demo", "--seed", "3", "--speedup", "20"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let set = tapeshape_measure::MeasurementSet::builtin("quick").unwrap();
+    // The demo's tape script, rebuilt here: the oracle for the stored values.
+    let script = tapeshape_sim::tape::Script::session(
+        set.definitions.len(),
+        3,
+        3000..12_000,
+        Duration::from_millis(1500),
+    );
+    let want: Vec<(String, u32)> = set
+        .definitions
+        .iter()
+        .map(|d| d.name.clone())
+        .zip(script.confirmed_values())
+        .collect();
+    let store = Store::open(&data).unwrap();
+    let list = store.list_sessions().unwrap();
+    assert_eq!(list.len(), 1);
+    assert_eq!(list[0].session.status, SessionStatus::Done);
+    let got: Vec<(String, u32)> = store
+        .open_session(list[0].session.id)
+        .unwrap()
+        .readings
+        .into_iter()
+        .map(|r| (r.measurement, r.device.value_tenth_mm))
+        .collect();
+    assert_eq!(got, want);
+    // The printed session lists every measurement.
+    for (name, _) in &want {
+        assert!(stdout.contains(name.as_str()), "{stdout}");
+    }
+}

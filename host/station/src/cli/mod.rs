@@ -16,6 +16,7 @@ use crate::store::{resolve_data_dir, Store};
 
 pub mod dataset;
 pub mod measure;
+pub mod demo;
 pub mod session;
 pub mod sessions;
 pub mod station;
