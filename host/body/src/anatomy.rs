@@ -242,10 +242,24 @@ pub fn try_anatomy() -> Result<Anatomy, AnatomyError> {
 
 /// The template's landmarks (vertex indices, kept order) and body parts
 /// (sorted triangle indices), from the compiled-in data files.
+///
+/// Parsed once per process and cloned on each call.
 pub fn anatomy() -> Anatomy {
-    // The data is compiled in and checked by the tests in this crate, so a
-    // failure here is a build defect, not an input error.
-    try_anatomy().expect("compiled-in anatomy data is valid (checked by tests/anatomy_data.rs)")
+    static CACHE: std::sync::OnceLock<Anatomy> = std::sync::OnceLock::new();
+    CACHE
+        .get_or_init(|| {
+            // The data is compiled in and checked by the tests in this crate, so a
+            // failure here is a build defect, not an input error.
+            try_anatomy()
+                .expect("compiled-in anatomy data is valid (checked by tests/anatomy_data.rs)")
+        })
+        .clone()
+}
+
+/// The committed landmark records (name, vertex, base vertex, rule, position
+/// on the derivation body), e.g. to show an operator how a landmark is defined.
+pub fn landmark_records() -> Result<Vec<LandmarkRecord>, AnatomyError> {
+    parse_landmarks(LANDMARKS_TOML)
 }
 
 /// Writes the landmark file text for derived landmarks.

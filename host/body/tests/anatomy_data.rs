@@ -354,3 +354,38 @@ fn bad_data_is_an_error() {
     assert_eq!(anatomy::expand_ranges(&ok[0].ranges), vec![1, 2, 7]);
     assert_eq!(anatomy::compress_ranges(&[1, 2, 7]), ok[0].ranges);
 }
+
+#[test]
+fn derivation_body_equals_the_generator_output() {
+    // The derivation blends the pack files itself; the generator reads its own
+    // embedded pack. Both must give the same body for the documented phenotype.
+    let ph = tapeshape_body::Phenotype {
+        gender: 0.5,
+        age: 0.78,
+        muscle: 0.5,
+        weight: 0.5,
+        height: 0.375,
+        proportions: 0.5,
+        cupsize: 0.5,
+        firmness: 0.5,
+        african: 1.0,
+        asian: 1.0,
+        caucasian: 1.0,
+    };
+    let model = tapeshape_body::BodyModel::shared().expect("generator loads");
+    let mesh = model
+        .generate(&ph, &tapeshape_body::LocalChanges::new())
+        .expect("generates");
+    let d = derived();
+    assert_eq!(mesh.vertices.len(), d.body.len());
+    let worst = mesh
+        .vertices
+        .iter()
+        .zip(&d.body)
+        .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max))
+        .fold(0.0, f64::max);
+    assert!(
+        worst < 1e-6,
+        "derivation body differs from the generator by {worst} m"
+    );
+}
