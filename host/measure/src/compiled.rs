@@ -45,6 +45,8 @@ enum Op {
         parts: Vec<String>,
         cut: usize,
         mode: CutMode,
+        /// Empty, or two landmarks the plane also passes through (normal computed per body).
+        through: Vec<(u32, String)>,
     },
 }
 
@@ -153,6 +155,7 @@ impl MeasurementSet {
                     anchor,
                     normal,
                     parts,
+                    through,
                 } => Op::Cut {
                     anchor: lm(anchor)?,
                     anchor_name: anchor.clone(),
@@ -160,6 +163,10 @@ impl MeasurementSet {
                     parts: parts.clone(),
                     cut: cut_index(parts)?,
                     mode: CutMode::Hull,
+                    through: through
+                        .iter()
+                        .map(|n| Ok((lm(n)?, n.clone())))
+                        .collect::<Result<_, MeasureError>>()?,
                 },
                 Kind::Breadth {
                     anchor,
@@ -179,6 +186,7 @@ impl MeasurementSet {
                     parts: parts.clone(),
                     cut: cut_index(parts)?,
                     mode: CutMode::Extent(*axis),
+                    through: Vec::new(),
                 },
             };
             ops.push(op);
@@ -191,6 +199,31 @@ impl MeasurementSet {
             graph: Arc::new(EdgeGraph::new(topology)),
         })
     }
+}
+
+/// Unit normal of the plane through `p[a]`, `p[b]`, `p[c]`, turned to agree
+/// with `hint`; `None` when the three points are (nearly) collinear or not finite.
+fn plane_normal(p: &[Vec3], a: u32, b: u32, c: u32, hint: Vec3) -> Option<Vec3> {
+    let (pa, pb, pc) = (p[a as usize], p[b as usize], p[c as usize]);
+    let u = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
+    let v = [pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]];
+    let n = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
+    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    let scale = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt()
+        * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if !l.is_finite() || l <= 1e-9 * scale || l == 0.0 {
+        return None;
+    }
+    let s = if n[0] * hint[0] + n[1] * hint[1] + n[2] * hint[2] < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
+    Some([s * n[0] / l, s * n[1] / l, s * n[2] / l])
 }
 
 fn finite(p: Vec3) -> bool {
@@ -372,7 +405,16 @@ impl CompiledSet {
                 parts,
                 cut,
                 mode,
+                through,
             } => {
+                let normal = &match through.as_slice() {
+                    [(t1, n1), (t2, n2)] => plane_normal(p, *anchor, *t1, *t2, *normal)
+                        .ok_or_else(|| MeasureError::DegeneratePlane {
+                            measurement: name.clone(),
+                            landmarks: [anchor_name.clone(), n1.clone(), n2.clone()],
+                        })?,
+                    _ => *normal,
+                };
                 let curve =
                     self.cuts[*cut]
                         .cut_curve(p, *anchor, *normal)

@@ -21,6 +21,11 @@
 
 use tapeshape_mesh::{Topology, Vec3};
 
+/// How far (metres) from the anchor a cut curve may pass and still count as
+/// "through the anchor": about one ring of template edges (10-20 mm on the
+/// trunk). Within this reach the longest curve is taken.
+pub(crate) const ANCHOR_REACH: f64 = 0.025;
+
 /// Per-topology data for cutting one set of parts: built once, used for
 /// every body.
 #[derive(Debug, Clone)]
@@ -193,7 +198,7 @@ impl PartCut {
         // Walk components: open chains (a crossing with one link lies on the
         // parts' boundary) from their ends first, then closed loops.
         let mut seen = vec![false; points.len()];
-        let mut best: Option<(f64, Vec<u32>)> = None;
+        let mut found: Vec<(f64, f64, Vec<u32>)> = Vec::new();
         let mut consider = |chain: Vec<u32>, closed: bool| {
             let mut m = f64::INFINITY;
             let k = chain.len();
@@ -202,16 +207,17 @@ impl PartCut {
                 let q = points[chain[0] as usize].pos;
                 m = dot(sub(q, p0), sub(q, p0));
             }
+            let mut len = 0.0;
             for i in 0..segs {
                 let (a, b) = (
                     points[chain[i] as usize].pos,
                     points[chain[(i + 1) % k] as usize].pos,
                 );
                 m = m.min(dist2_point_segment(p0, a, b));
+                let d = sub(b, a);
+                len += dot(d, d).sqrt();
             }
-            if best.as_ref().is_none_or(|(bm, _)| m < *bm) {
-                best = Some((m, chain));
-            }
+            found.push((m.sqrt(), len, chain));
         };
         let walk = |start: u32, seen: &mut Vec<bool>| -> Vec<u32> {
             let mut chain = vec![start];
@@ -246,7 +252,15 @@ impl PartCut {
                 consider(chain, true);
             }
         }
-        let (_, chain) = best.expect("at least one crossing");
+        // The curve through the anchor: the nearest one, except that a longer
+        // curve passing within ANCHOR_REACH of the anchor wins over a short
+        // fragment (an anchor on the parts' boundary touches slivers of the cut).
+        let d_min = found.iter().map(|f| f.0).fold(f64::INFINITY, f64::min);
+        let (_, _, chain) = found
+            .into_iter()
+            .filter(|f| f.0 <= d_min + ANCHOR_REACH)
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("at least one crossing");
         Ok(chain.into_iter().map(|i| points[i as usize]).collect())
     }
 }

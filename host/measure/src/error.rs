@@ -129,6 +129,14 @@ pub enum MeasureError {
         /// Part names.
         parts: Vec<String>,
     },
+    /// The three landmarks that define a measurement's plane are collinear (or not finite).
+    #[error("measurement `{measurement}`: the landmarks {landmarks:?} that define its plane are collinear or not finite on this body")]
+    DegeneratePlane {
+        /// Measurement name.
+        measurement: String,
+        /// Anchor and the two `through` landmarks.
+        landmarks: [String; 3],
+    },
     /// No surface path joins two landmarks (they lie on different components).
     #[error("measurement `{measurement}`: no surface path from `{from}` to `{to}` (the landmarks lie on different connected components of the mesh)")]
     NoPath {

@@ -28,7 +28,9 @@
 //!   the cut curve (closed, or open where the parts' boundary cuts it)
 //!   nearest the anchor is taken, and the value is the perimeter of its
 //!   convex hull in the plane (a tape bridges concavities). Support = the
-//!   hull's corners as edge interpolants, segments closing the loop.
+//!   hull's corners as edge interpolants, segments closing the loop. With
+//!   `through = [b, c]` the plane passes through the anchor and landmarks
+//!   `b`, `c` of each body instead of having a fixed normal.
 //! - `height {landmark, floor?}`: `z(landmark) - z(floor)`, support = the two
 //!   points with axis +Z. The floor is the named landmark or, by default, the
 //!   lower of `heel_bottom_left` / `heel_bottom_right` on that body (so a

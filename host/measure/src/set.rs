@@ -39,7 +39,7 @@
 //! | `geodesic` | `from`, `to` | shortest path on the edge graph (Dijkstra) |
 //! | `geodesic_path` | `landmarks` (>= 2) | sum of geodesics along the list (open) |
 //! | `geodesic_loop` | `landmarks` (>= 2) | sum of geodesics around the list, closed |
-//! | `circumference` | `anchor`, `normal`, `parts` | perimeter of the convex hull of the plane cut |
+//! | `circumference` | `anchor`, `normal`, `parts`, optional `through` (2 landmarks) | perimeter of the convex hull of the plane cut |
 //! | `height` | `landmark`, optional `floor` | vertical distance from the floor landmark |
 //! | `breadth`, `depth` | `anchor`, `normal`, `parts`, `axis` | hull extent of the plane cut along `axis` |
 
@@ -194,10 +194,15 @@ pub enum Kind {
     Circumference {
         /// Landmark the plane passes through (the cut curve nearest to it is used).
         anchor: String,
-        /// Plane normal, station frame (normalised on load).
+        /// Plane normal, station frame (normalised on load). With `through`,
+        /// only its sign matters: the computed normal is turned to agree with it.
         normal: Vec3,
         /// Body parts the plane cuts (others are ignored).
         parts: Vec<String>,
+        /// Empty, or two more landmarks: the plane then passes through the
+        /// anchor and these two on each body (e.g. the neck base through the
+        /// suprasternale and both neck sides), instead of having a fixed normal.
+        through: Vec<String>,
     },
     /// Vertical distance (along +Z) from the floor landmark to `landmark`.
     Height {
@@ -253,9 +258,12 @@ impl Kind {
             Kind::Path { landmarks }
             | Kind::GeodesicPath { landmarks }
             | Kind::GeodesicLoop { landmarks } => landmarks.iter().map(String::as_str).collect(),
-            Kind::Circumference { anchor, .. }
-            | Kind::Breadth { anchor, .. }
-            | Kind::Depth { anchor, .. } => vec![anchor],
+            Kind::Circumference {
+                anchor, through, ..
+            } => std::iter::once(anchor.as_str())
+                .chain(through.iter().map(String::as_str))
+                .collect(),
+            Kind::Breadth { anchor, .. } | Kind::Depth { anchor, .. } => vec![anchor],
             Kind::Height { landmark, floor } => {
                 let mut v = vec![landmark.as_str()];
                 match floor {
@@ -695,6 +703,18 @@ fn parse_definition(t: &toml::Table, set: &str, index: usize) -> Result<Definiti
             anchor: f.string("anchor")?,
             normal: f.unit_vector("normal")?,
             parts: f.strings("parts", 1)?,
+            through: if t.contains_key("through") {
+                let th = f.strings("through", 2)?;
+                if th.len() != 2 {
+                    return Err(f.err(format!(
+                        "`through` names exactly two landmarks (the plane passes through the anchor and them), found {}",
+                        th.len()
+                    )));
+                }
+                th
+            } else {
+                Vec::new()
+            },
         },
         "height" => Kind::Height {
             landmark: f.string("landmark")?,

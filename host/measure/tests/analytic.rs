@@ -559,3 +559,54 @@ fn bad_input_gives_errors_naming_the_measurement() {
         Err(MeasureError::IndexOutOfRange { .. })
     ));
 }
+
+#[test]
+fn plane_through_three_landmarks_follows_the_body() {
+    let (r, n, rings) = (0.15, 128, 8);
+    let mesh = prism(&circle(r, n), 1.2, rings);
+    let body: Vec<u32> = (0..mesh.faces().len() as u32).collect();
+    // Anchor on ring 3, the two others on ring 4 opposite each other (rings
+    // 0.15 m apart): an oblique plane whose normal is computed from the body,
+    // rising 0.15 m over a run of r, so the cut is an ellipse with semi-axes
+    // r and r * sqrt(2), clear of the caps.
+    let id = |k: usize, i: usize| (k * n + i) as u32;
+    let an = anatomy(
+        &[
+            ("a", id(3, 0)),
+            ("b", id(4, n / 4)),
+            ("c", id(4, 3 * n / 4)),
+            ("d", id(3, n / 2)),
+        ],
+        &[("body", body)],
+    );
+    let entries = [
+        entry(
+            "oblique",
+            "circumference",
+            "anchor = \"a\"\nnormal = [0, 0, 1]\nthrough = [\"b\", \"c\"]\nparts = [\"body\"]",
+        ),
+        entry(
+            "collinear",
+            "circumference",
+            "anchor = \"a\"\nnormal = [0, 0, 1]\nthrough = [\"d\", \"a\"]\nparts = [\"body\"]",
+        ),
+    ]
+    .concat();
+    let c = compile(&mesh, &an, &entries);
+    let m = c.measure_one(0, &mesh.vertices).unwrap();
+    let (a, b) = (r * 2f64.sqrt(), r);
+    let h = ((a - b) / (a + b)).powi(2);
+    let ellipse =
+        std::f64::consts::PI * (a + b) * (1.0 + 3.0 * h / (10.0 + (4.0 - 3.0 * h).sqrt()));
+    assert!(
+        (m.value - ellipse).abs() / ellipse < 2e-3,
+        "{} vs {ellipse}",
+        m.value
+    );
+    assert_eq!(m.support.length(&mesh.vertices), m.value);
+    let e = c.measure_one(1, &mesh.vertices).unwrap_err();
+    assert!(
+        matches!(e, MeasureError::DegeneratePlane { .. }) && e.to_string().contains("`collinear`"),
+        "{e}"
+    );
+}
