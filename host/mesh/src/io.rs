@@ -657,15 +657,43 @@ pub fn station_to_gltf(p: Vec3) -> Vec3 {
 /// converted with [`station_to_gltf`] (metres, as glTF requires). Errors for
 /// a mesh without vertices or faces (glTF accessors cannot be empty).
 pub fn glb_bytes(mesh: &Mesh, name: &str) -> Result<Vec<u8>, MeshIoError> {
+    glb_bytes_with_colors(mesh, name, None)
+}
+
+/// [`glb_bytes`] with optional per-vertex colours (`COLOR_0`, linear RGB in
+/// [0, 1], one per vertex), e.g. a heat map of per-vertex error. Errors if
+/// the colour count differs from the vertex count or a value is outside [0, 1].
+pub fn glb_bytes_with_colors(
+    mesh: &Mesh,
+    name: &str,
+    colors: Option<&[[f32; 3]]>,
+) -> Result<Vec<u8>, MeshIoError> {
     let n = mesh.vertices.len();
     let m = mesh.faces().len();
+    let bad = |what: String| MeshIoError::Format {
+        path: name.to_string(),
+        what,
+    };
     if n == 0 || m == 0 {
-        return Err(MeshIoError::Format {
-            path: name.to_string(),
-            what: "cannot write a mesh without vertices or triangles as glTF".into(),
-        });
+        return Err(bad(
+            "cannot write a mesh without vertices or triangles as glTF".into(),
+        ));
     }
-    let mut bin = Vec::with_capacity(24 * n + 12 * m);
+    if let Some(c) = colors {
+        if c.len() != n {
+            return Err(bad(format!("{} colours for {n} vertices", c.len())));
+        }
+        if let Some(i) = c
+            .iter()
+            .position(|rgb| rgb.iter().any(|v| !(0.0..=1.0).contains(v)))
+        {
+            return Err(bad(format!(
+                "colour of vertex {i} is outside [0, 1]: {:?}",
+                c[i]
+            )));
+        }
+    }
+    let mut bin = Vec::with_capacity(36 * n + 12 * m);
     let mut min = [f32::INFINITY; 3];
     let mut max = [f32::NEG_INFINITY; 3];
     for v in &mesh.vertices {
@@ -688,12 +716,34 @@ pub fn glb_bytes(mesh: &Mesh, name: &str) -> Result<Vec<u8>, MeshIoError> {
             bin.extend_from_slice(&(c as f32).to_le_bytes());
         }
     }
+    for rgb in colors.unwrap_or(&[]) {
+        for c in rgb {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
     for f in mesh.faces() {
         for i in f {
             bin.extend_from_slice(&i.to_le_bytes());
         }
     }
-    let (pos_len, idx_len) = (12 * n, 12 * m);
+    let (vec_len, idx_len) = (12 * n, 12 * m);
+    let mut attributes = serde_json::json!({ "POSITION": 0, "NORMAL": 1 });
+    let mut accessors = vec![
+        serde_json::json!({ "bufferView": 0, "componentType": 5126, "count": n, "type": "VEC3", "min": min, "max": max }),
+        serde_json::json!({ "bufferView": 1, "componentType": 5126, "count": n, "type": "VEC3" }),
+    ];
+    let mut views = vec![
+        serde_json::json!({ "buffer": 0, "byteOffset": 0, "byteLength": vec_len, "target": 34962 }),
+        serde_json::json!({ "buffer": 0, "byteOffset": vec_len, "byteLength": vec_len, "target": 34962 }),
+    ];
+    if colors.is_some() {
+        attributes["COLOR_0"] = serde_json::json!(2);
+        accessors.push(serde_json::json!({ "bufferView": 2, "componentType": 5126, "count": n, "type": "VEC3" }));
+        views.push(serde_json::json!({ "buffer": 0, "byteOffset": 2 * vec_len, "byteLength": vec_len, "target": 34962 }));
+    }
+    let idx_view = views.len();
+    views.push(serde_json::json!({ "buffer": 0, "byteOffset": idx_view * vec_len, "byteLength": idx_len, "target": 34963 }));
+    accessors.push(serde_json::json!({ "bufferView": idx_view, "componentType": 5125, "count": 3 * m, "type": "SCALAR" }));
     let json = serde_json::json!({
         "asset": {
             "version": "2.0",
@@ -708,18 +758,10 @@ pub fn glb_bytes(mesh: &Mesh, name: &str) -> Result<Vec<u8>, MeshIoError> {
         "nodes": [{ "mesh": 0, "name": name }],
         "meshes": [{
             "name": name,
-            "primitives": [{ "attributes": { "POSITION": 0, "NORMAL": 1 }, "indices": 2, "mode": 4 }]
+            "primitives": [{ "attributes": attributes, "indices": accessors.len() - 1, "mode": 4 }]
         }],
-        "accessors": [
-            { "bufferView": 0, "componentType": 5126, "count": n, "type": "VEC3", "min": min, "max": max },
-            { "bufferView": 1, "componentType": 5126, "count": n, "type": "VEC3" },
-            { "bufferView": 2, "componentType": 5125, "count": 3 * m, "type": "SCALAR" }
-        ],
-        "bufferViews": [
-            { "buffer": 0, "byteOffset": 0, "byteLength": pos_len, "target": 34962 },
-            { "buffer": 0, "byteOffset": pos_len, "byteLength": pos_len, "target": 34962 },
-            { "buffer": 0, "byteOffset": 2 * pos_len, "byteLength": idx_len, "target": 34963 }
-        ],
+        "accessors": accessors,
+        "bufferViews": views,
         "buffers": [{ "byteLength": bin.len() }]
     });
     let mut json = serde_json::to_vec(&json).expect("a JSON value always serialises");

@@ -1,7 +1,7 @@
 //! GLB output read back with the `gltf` crate: counts, bounds, indices,
 //! normals and the station -> glTF frame conversion.
 
-use tapeshape_mesh::io::{glb_bytes, station_to_gltf, write_glb};
+use tapeshape_mesh::io::{glb_bytes, glb_bytes_with_colors, station_to_gltf, write_glb};
 use tapeshape_mesh::Mesh;
 
 /// A tall box standing on the floor (station frame), 0.4 m wide (x), 0.2 m deep (y), 1.8 m tall (z).
@@ -79,6 +79,27 @@ fn glb_reads_back_with_the_gltf_crate() {
             + a[2] * (b[0] * c[1] - b[1] * c[0]);
     }
     assert!((vol / 6.0 - 0.4 * 0.2 * 1.8).abs() < 1e-6, "{}", vol / 6.0);
+}
+
+#[test]
+fn glb_vertex_colours() {
+    let m = standing_box();
+    let colors: Vec<[f32; 3]> = (0..8)
+        .map(|i| [i as f32 / 7.0, 0.5, 1.0 - i as f32 / 7.0])
+        .collect();
+    let bytes = glb_bytes_with_colors(&m, "heat", Some(&colors)).unwrap();
+    let (doc, buffers, _) = gltf::import_slice(&bytes).unwrap();
+    let prim = doc.meshes().next().unwrap().primitives().next().unwrap();
+    let r = prim.reader(|b| Some(&buffers[b.index()]));
+    let back: Vec<[f32; 3]> = r.read_colors(0).unwrap().into_rgb_f32().collect();
+    assert_eq!(back, colors);
+    let idx: Vec<u32> = r.read_indices().unwrap().into_u32().collect();
+    assert_eq!(idx, m.faces().iter().flatten().copied().collect::<Vec<_>>());
+    assert_eq!(r.read_positions().unwrap().count(), 8);
+    assert!(glb_bytes_with_colors(&m, "x", Some(&colors[..7])).is_err());
+    let mut hot = colors.clone();
+    hot[3][0] = 1.5;
+    assert!(glb_bytes_with_colors(&m, "x", Some(&hot)).is_err());
 }
 
 #[test]
