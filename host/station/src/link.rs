@@ -254,6 +254,7 @@ pub enum LinkEvent {
     },
     /// Committing a reading failed (for example the session was closed or
     /// the disk is full); it was not acknowledged and the device keeps it.
+    /// Reported once per reading and error, not per retransmission.
     CommitFailed {
         /// The reading as sent.
         reading: Reading,
@@ -366,6 +367,7 @@ impl Link {
             naming: Naming::None,
             counters: LinkCounters::default(),
             reported_unassigned: HashSet::new(),
+            reported_failures: HashSet::new(),
         };
         let join = tokio::spawn(task.run());
         (LinkHandle { cmd: cmd_tx }, ev_rx, join)
@@ -390,6 +392,8 @@ struct LinkTask {
     /// (boot, seq) of readings reported unassigned, so that retransmissions
     /// are not reported again; cleared when the target changes.
     reported_unassigned: HashSet<(u32, u32)>,
+    /// (boot, seq, error) of failed commits already reported.
+    reported_failures: HashSet<(u32, u32, String)>,
 }
 
 /// Per-connection state.
@@ -429,6 +433,7 @@ impl LinkTask {
             Some(Command::SetSession(s)) => {
                 self.session = s;
                 self.reported_unassigned.clear();
+                self.reported_failures.clear();
             }
             Some(Command::SetNaming(n)) => {
                 self.naming = n;
@@ -747,12 +752,8 @@ impl LinkTask {
         });
         let last = match last.await {
             Ok(l) => l,
-            Err(e) => {
-                self.emit(LinkEvent::CommitFailed {
-                    reading: r,
-                    error: e,
-                })
-                .await;
+            Err(error) => {
+                self.commit_failed(r, error).await;
                 return Ok(());
             }
         };
@@ -824,13 +825,25 @@ impl LinkTask {
                 })
                 .await;
             }
-            Err(error) => {
-                tracing::error!(seq = r.seq, %error, "commit failed; reading not acknowledged");
-                self.emit(LinkEvent::CommitFailed { reading: r, error })
-                    .await;
-            }
+            Err(error) => self.commit_failed(r, error).await,
         }
         Ok(())
+    }
+
+    /// Reports a failed commit once per reading and error (the device
+    /// retransmits every few hundred milliseconds; one report is enough).
+    async fn commit_failed(&mut self, r: Reading, error: String) {
+        if self.reported_failures.len() > 1024 {
+            self.reported_failures.clear();
+        }
+        if self
+            .reported_failures
+            .insert((r.boot_id, r.seq, error.clone()))
+        {
+            tracing::error!(seq = r.seq, %error, "commit failed; reading not acknowledged");
+            self.emit(LinkEvent::CommitFailed { reading: r, error })
+                .await;
+        }
     }
 
     async fn on_duplicate(&mut self, conn: &mut Conn, r: Reading, last: u32) -> Result<(), String> {

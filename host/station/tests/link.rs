@@ -611,3 +611,42 @@ async fn a_second_station_cannot_take_the_port() {
         "second link opened a port in use: {ev:?}"
     );
 }
+
+#[tokio::test]
+async fn a_closed_session_refuses_readings_until_reopened() {
+    let port = Port::new();
+    let mut dev = port.plug();
+    let mut rig = rig(&port.path);
+    rig.link.set_session(Some(rig.session));
+    rig.link.set_naming(Naming::Numbered);
+    dev.handshake(4, PROTOCOL_VERSION).await;
+    // Another process closes the session while the station runs.
+    rig.store
+        .set_status(rig.session, tapeshape::store::SessionStatus::Done)
+        .unwrap();
+    for _ in 0..3 {
+        dev.reading(4, 0, 700).await; // the device's retransmissions
+    }
+    let ev = wait_for(&mut rig.events, "commit failed", |e| {
+        matches!(e, LinkEvent::CommitFailed { .. })
+    })
+    .await;
+    let LinkEvent::CommitFailed { error, .. } = ev else {
+        unreachable!()
+    };
+    assert!(error.contains("done"), "{error}");
+    assert_eq!(dev.ack_within(QUIET).await, None);
+    // Reported once, not once per retransmission.
+    while let Ok(ev) = rig.events.try_recv() {
+        assert!(!matches!(ev, LinkEvent::CommitFailed { .. }), "{ev:?}");
+    }
+    rig.store
+        .set_status(rig.session, tapeshape::store::SessionStatus::Open)
+        .unwrap();
+    dev.reading(4, 0, 700).await;
+    assert_eq!(dev.ack().await, (4, 0));
+    assert_eq!(
+        values(&rig.store, rig.session),
+        vec![("reading-1".into(), 0, 700)]
+    );
+}
