@@ -16,6 +16,11 @@ pub struct FitSettings {
     pub rel_eigen_threshold: f64,
     /// Keep at most this many components (default: all, i.e. at most N - 1).
     pub max_components: Option<usize>,
+    /// Keep only the fewest leading components explaining at least this
+    /// fraction of the variance (default `None`: all). The basis is 3V x K
+    /// doubles (about 0.33 MB per component on the 13,718-vertex template),
+    /// so this bounds the model file.
+    pub variance_fraction: Option<f64>,
 }
 
 impl Default for FitSettings {
@@ -23,6 +28,7 @@ impl Default for FitSettings {
         Self {
             rel_eigen_threshold: 1e-9,
             max_components: None,
+            variance_fraction: None,
         }
     }
 }
@@ -95,7 +101,12 @@ impl ShapeModel {
             }
         }
         let data = DMatrix::from_fn(3 * v, n, |r, i| meshes[i][r / 3][r % 3]);
-        let fit = Pca::fit(&data, settings.rel_eigen_threshold, settings.max_components)?;
+        let fit = Pca::fit_with_variance(
+            &data,
+            settings.rel_eigen_threshold,
+            settings.max_components,
+            settings.variance_fraction,
+        )?;
         let p = DMatrix::from_fn(n, m, |i, j| measurements[i][j]);
         let feature_map = FeatureMap::fit(&p, &fit.weights)?;
         let joint = JointGaussian::fit(&p, &fit.weights)?;

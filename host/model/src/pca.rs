@@ -52,6 +52,18 @@ impl Pca {
         rel_threshold: f64,
         max_components: Option<usize>,
     ) -> Result<PcaFit> {
+        Self::fit_with_variance(data, rel_threshold, max_components, None)
+    }
+
+    /// [`Pca::fit`], additionally keeping only the fewest leading components
+    /// whose eigenvalues sum to at least `variance_fraction` (in (0, 1]) of
+    /// the total, if given.
+    pub fn fit_with_variance(
+        data: &DMatrix<f64>,
+        rel_threshold: f64,
+        max_components: Option<usize>,
+        variance_fraction: Option<f64>,
+    ) -> Result<PcaFit> {
         let (d, n) = data.shape();
         if n < 2 {
             return Err(ModelError::InvalidTraining(format!(
@@ -85,7 +97,23 @@ impl Pca {
                 "all training bodies are identical: no shape variation to learn".into(),
             ));
         }
-        let cap = max_components.unwrap_or(usize::MAX).min(n - 1);
+        let mut cap = max_components.unwrap_or(usize::MAX).min(n - 1);
+        if let Some(frac) = variance_fraction {
+            if !(frac > 0.0 && frac <= 1.0) {
+                return Err(ModelError::InvalidInput(format!(
+                    "variance fraction must lie in (0, 1], got {frac}"
+                )));
+            }
+            let total: f64 = order.iter().map(|&i| eig.eigenvalues[i].max(0.0)).sum();
+            let mut acc = 0.0;
+            for (j, &i) in order.iter().enumerate() {
+                acc += eig.eigenvalues[i].max(0.0);
+                if acc >= frac * total * (1.0 - 1e-12) {
+                    cap = cap.min(j + 1);
+                    break;
+                }
+            }
+        }
         let kept: Vec<usize> = order
             .into_iter()
             .filter(|&i| eig.eigenvalues[i] > rel_threshold * lambda_max)
@@ -279,6 +307,17 @@ mod tests {
         assert_eq!(fit.pca.n_components, 2);
         let capped = Pca::fit(&data, 1e-10, Some(1)).unwrap();
         assert_eq!(capped.pca.n_components, 1);
+        let all = Pca::fit_with_variance(&data, 1e-10, None, Some(1.0)).unwrap();
+        assert_eq!(all.pca.n_components, 2);
+        // The first component's share of the variance decides the cut.
+        let s0 = fit.pca.sigma[0].powi(2);
+        let s1 = fit.pca.sigma[1].powi(2);
+        let share = s0 / (s0 + s1);
+        let one = Pca::fit_with_variance(&data, 1e-10, None, Some(share * 0.99)).unwrap();
+        assert_eq!(one.pca.n_components, 1);
+        let two = Pca::fit_with_variance(&data, 1e-10, None, Some(share * 1.01)).unwrap();
+        assert_eq!(two.pca.n_components, 2);
+        assert!(Pca::fit_with_variance(&data, 1e-10, None, Some(0.0)).is_err());
     }
 
     #[test]
