@@ -718,11 +718,23 @@ impl BodyModel {
         lc: &LocalChanges,
         params: &[Param],
     ) -> Result<Vec<Vec<Vec3>>, BodyError> {
-        let body = self.blend(ph, lc, N_KEPT)?;
-        let (lowest, _) = Self::floor(&body);
+        Ok(self.generate_with_jacobian(ph, lc, params)?.1)
+    }
+
+    /// [`BodyModel::generate`] and [`BodyModel::jacobian`] together, sharing
+    /// the blend (saves one body generation per call in a fitting loop).
+    pub fn generate_with_jacobian(
+        &self,
+        ph: &Phenotype,
+        lc: &LocalChanges,
+        params: &[Param],
+    ) -> Result<(Mesh, Vec<Vec<Vec3>>), BodyError> {
+        let mut body = self.blend(ph, lc, N_KEPT)?;
+        let (lowest, z0) = Self::floor(&body);
+        body.iter_mut().for_each(|p| p[2] -= z0);
         let local = lc.resolve()?;
         let anchors = Anchors::new(ph);
-        params
+        let jac = params
             .iter()
             .map(|&param| {
                 let mut terms = Vec::new();
@@ -740,7 +752,8 @@ impl BodyModel {
                 d.iter_mut().for_each(|p| p[2] -= dz0);
                 Ok(d)
             })
-            .collect()
+            .collect::<Result<_, BodyError>>()?;
+        Ok((Mesh::new(body, self.topology.clone())?, jac))
     }
 }
 

@@ -295,6 +295,9 @@ fn check_jacobian(ph: &Phenotype, lc: &LocalChanges) {
     }
     let jac = m.jacobian(&ph, &lc, &params).unwrap();
     let base = m.generate(&ph, &lc).unwrap();
+    let (base2, jac2) = m.generate_with_jacobian(&ph, &lc, &params).unwrap();
+    assert_eq!(base2.vertices, base.vertices);
+    assert_eq!(jac2, jac);
     let h = 1e-6;
     for (p, d) in params.iter().zip(&jac) {
         // Forward differences: the blend is linear in each non-race parameter
