@@ -394,6 +394,28 @@ pub fn hstack(imgs: &[RgbImage]) -> RgbImage {
     out
 }
 
+/// A diverging colour map for signed values such as signed distances:
+/// `-limit` -> blue, 0 -> light grey, `+limit` -> red, linear in between and
+/// clamped beyond; NaN maps to black so that bad values stand out.
+pub fn diverging_colour(value: f64, limit: f64) -> [u8; 3] {
+    if value.is_nan() {
+        return [0, 0, 0];
+    }
+    let t = if limit > 0.0 {
+        (value / limit).clamp(-1.0, 1.0)
+    } else {
+        value.signum()
+    };
+    let mid = [225.0, 225.0, 225.0];
+    let end = if t >= 0.0 {
+        [200.0, 30.0, 30.0]
+    } else {
+        [30.0, 70.0, 200.0]
+    };
+    let a = t.abs();
+    [0, 1, 2].map(|k| (mid[k] + (end[k] - mid[k]) * a).round() as u8)
+}
+
 /// Places images one above the other (left aligned, white fill).
 pub fn vstack(imgs: &[RgbImage]) -> RgbImage {
     let w = imgs.iter().map(|i| i.width()).max().unwrap_or(1);
@@ -597,6 +619,17 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
         let err = save_png(&img, &dir.join("missing/sub/x.png"));
         assert!(matches!(err, Err(RenderError::Write { .. })));
+    }
+
+    #[test]
+    fn diverging_colours_run_blue_grey_red() {
+        assert_eq!(diverging_colour(0.0, 0.01), [225, 225, 225]);
+        assert_eq!(diverging_colour(0.01, 0.01), [200, 30, 30]);
+        assert_eq!(diverging_colour(5.0, 0.01), [200, 30, 30]);
+        assert_eq!(diverging_colour(-0.01, 0.01), [30, 70, 200]);
+        assert_eq!(diverging_colour(f64::NAN, 0.01), [0, 0, 0]);
+        let half = diverging_colour(0.005, 0.01);
+        assert!(half[0] > 200 && half[1] > 100 && half[1] < 150, "{half:?}");
     }
 
     #[test]
