@@ -84,12 +84,39 @@ fn main() {
         "generate_full (19,158 vertices): {:.2} ms/body",
         t.elapsed().as_secs_f64() * 1e3 / n as f64
     );
+    let n = 20;
     let t = Instant::now();
-    let j = model.jacobian(&ph, &lc, &Param::MACRO).unwrap();
+    for _ in 0..n {
+        let j = model.jacobian(&ph, &lc, &Param::MACRO).unwrap();
+        assert_eq!((j.len(), j[0].len()), (11, 13_718));
+    }
     println!(
-        "jacobian, 11 macro parameters: {:.2} ms ({} x {} vectors)",
-        t.elapsed().as_secs_f64() * 1e3,
-        j.len(),
-        j[0].len()
+        "jacobian, 11 macro parameters: {:.2} ms per call",
+        t.elapsed().as_secs_f64() * 1e3 / n as f64
+    );
+    // A fitting step as the population fitter does it: body + derivatives
+    // by height, weight, muscle, proportions and 4 local changes.
+    let mut params = vec![
+        Param::Height,
+        Param::Weight,
+        Param::Muscle,
+        Param::Proportions,
+    ];
+    for label in [
+        "measure-waist-circ-incr",
+        "measure-hips-circ-incr",
+        "measure-bust-circ-incr",
+        "measure-neck-circ-incr",
+    ] {
+        params.push(Param::local(label).unwrap());
+    }
+    let t = Instant::now();
+    for _ in 0..n {
+        let (body, j) = model.generate_with_jacobian(&ph, &lc, &params).unwrap();
+        assert_eq!((body.vertices.len(), j.len()), (13_718, 8));
+    }
+    println!(
+        "generate_with_jacobian, 4 macro + 4 local parameters: {:.2} ms per call",
+        t.elapsed().as_secs_f64() * 1e3 / n as f64
     );
 }
