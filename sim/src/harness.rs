@@ -155,10 +155,10 @@ pub struct HarnessConfig {
 
 impl HarnessConfig {
     /// Defaults for a device id and a first boot id; the firmware's timers shortened for
-    /// tests (retransmit after 100 ms, status every 500 ms).
+    /// tests (retransmit after 20 ms, status every 500 ms, hello every 200 ms).
     pub fn fast(device_id: u64, boot_id: u32) -> Self {
         let mut firmware = Config::new(device_id, boot_id);
-        firmware.retransmit_ms = 100;
+        firmware.retransmit_ms = 20;
         firmware.status_interval_ms = 500;
         firmware.hello_interval_ms = 200;
         Self { firmware }

@@ -1,1 +1,308 @@
-//! End-to-end tests across crates.
+//! End-to-end tests across crates: simulated tape -> firmware -> pseudo-terminal -> station
+//! link -> SQLite.
+//!
+//! Why a crate of its own: these tests need every layer at once (the simulator, the firmware
+//! logic or the real board under QEMU, the station's link and store, the `tapeshape` binary),
+//! and none of those crates should depend on all the others just to be tested. The tests
+//! live in `tests/tests/*.rs`; this library holds what they share: the device under test,
+//! the tape player, the link's test settings, the event loop that watches a run, and the
+//! checks of what the store holds.
+//!
+//! Every run uses real pseudo-terminals end to end, so the station opens a path and runs its
+//! real serial code (tokio-serial), exactly as it would on a USB serial port.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use tapeshape::link::{LinkConfig, LinkCounters, LinkEvent};
+use tapeshape::store::{SessionId, Store, StoredReading};
+use tapeshape_protocol::{Fault, Status};
+use tapeshape_sim::harness::{FirmwareHarness, HarnessConfig};
+use tapeshape_sim::proxy::ProxyHandle;
+use tapeshape_sim::pty::TtyStream;
+use tapeshape_sim::qemu::QemuBoard;
+use tapeshape_sim::tape::{Confirmed, TimedOutput};
+use tokio::sync::mpsc;
+use tokio::task::JoinHandle;
+use tokio::time::Instant;
+
+/// Device id of the simulated tape station in these tests.
+pub const DEVICE_ID: u64 = 0x7E57_0000_0000_0001;
+
+/// Link settings for tests: reconnect quickly after an unplug, notice silence within a
+/// second, and a deep event queue.
+pub fn fast_link_config() -> LinkConfig {
+    LinkConfig {
+        reconnect_poll: Duration::from_millis(20),
+        hello_retry: Duration::from_millis(200),
+        silence_timeout: Duration::from_secs(1),
+        event_capacity: 4096,
+        ..LinkConfig::default()
+    }
+}
+
+/// The device under test: the firmware logic on the host, or the real board under QEMU.
+#[derive(Debug)]
+pub enum DeviceUnderTest {
+    /// `tapeshape_firmware::run` on a host thread.
+    Harness(FirmwareHarness),
+    /// The mps2-an386 firmware ELF under qemu-system-arm.
+    Qemu(QemuBoard),
+}
+
+impl DeviceUnderTest {
+    /// The firmware logic on the host with the fast test timers.
+    pub fn harness(boot_id: u32) -> Self {
+        Self::Harness(
+            FirmwareHarness::start(HarnessConfig::fast(DEVICE_ID, boot_id))
+                .expect("starting the firmware harness"),
+        )
+    }
+
+    /// The tty the tape writes to.
+    pub fn tape_path(&self) -> &Path {
+        match self {
+            Self::Harness(h) => h.tape_path(),
+            Self::Qemu(q) => &q.tape_pty,
+        }
+    }
+
+    /// The firmware's host UART.
+    pub fn host_path(&self) -> &Path {
+        match self {
+            Self::Harness(h) => h.host_path(),
+            Self::Qemu(q) => &q.host_pty,
+        }
+    }
+}
+
+/// Whether the QEMU test can run here. Without `qemu-system-arm`: a failure when the `CI`
+/// environment variable is set (CI must install it), otherwise a loud SKIPPED line.
+pub fn qemu_available_or_skip(test: &str) -> bool {
+    if tapeshape_sim::qemu::qemu_installed() {
+        return true;
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "{test}: qemu-system-arm is not installed, and CI is set: CI must install it \
+         (apt-get install -y qemu-system-arm)"
+    );
+    eprintln!(
+        "\n*** SKIPPED {test}: qemu-system-arm is not installed \
+         (apt-get install -y qemu-system-arm) ***\n"
+    );
+    false
+}
+
+/// Plays a tape timeline into a tty path on a task of its own. Confirmations are reported on
+/// the returned channel as they are written.
+pub fn spawn_tape(
+    path: &Path,
+    timeline: Vec<TimedOutput>,
+    speedup: f64,
+) -> (
+    JoinHandle<std::io::Result<u64>>,
+    mpsc::UnboundedReceiver<Confirmed>,
+) {
+    let mut tty = TtyStream::open_path(path).expect("opening the tape port");
+    let (tx, rx) = mpsc::unbounded_channel();
+    let task = tokio::spawn(async move {
+        tapeshape_sim::tape::play(&timeline, speedup, &mut tty, |c| {
+            let _ = tx.send(c);
+        })
+        .await
+    });
+    (task, rx)
+}
+
+/// What a watched run saw.
+#[derive(Debug, Default)]
+pub struct Observed {
+    /// Readings committed (one event each).
+    pub committed: Vec<StoredReading>,
+    /// Faults the device reported.
+    pub faults: Vec<Fault>,
+    /// The latest device status.
+    pub last_status: Option<Status>,
+    /// Link counters at the latest event that carried them.
+    pub counters: LinkCounters,
+    /// Disconnections seen.
+    pub disconnects: u32,
+    /// Duplicates the link recognised.
+    pub duplicates: u32,
+    /// Gaps the link saw.
+    pub gaps: u32,
+    /// Device hellos seen (one per connection and boot).
+    pub hellos: u32,
+}
+
+impl Observed {
+    /// Takes one link event into account.
+    pub fn record(&mut self, ev: LinkEvent) {
+        match ev {
+            LinkEvent::ReadingCommitted { reading, .. } => self.committed.push(reading),
+            LinkEvent::Fault(f) => self.faults.push(f),
+            LinkEvent::Status(s) => self.last_status = Some(s),
+            LinkEvent::BadFrame { counters, .. } => self.counters = counters,
+            LinkEvent::Disconnected { counters, .. } => {
+                self.counters = counters;
+                self.disconnects += 1;
+            }
+            LinkEvent::Duplicate { .. } => self.duplicates += 1,
+            LinkEvent::Gap { .. } => self.gaps += 1,
+            LinkEvent::Connected(_) => self.hellos += 1,
+            LinkEvent::VersionMismatch(v) => panic!("unexpected version mismatch: {v}"),
+            LinkEvent::CommitFailed { reading, error } => {
+                panic!("commit failed for {reading:?}: {error}")
+            }
+            _ => {}
+        }
+    }
+
+    /// Faults that mean a confirmed reading was refused by the device (lost at the source).
+    pub fn queue_full_faults(&self) -> Vec<Fault> {
+        self.faults
+            .iter()
+            .filter(|f| matches!(f, Fault::QueueFull { .. }))
+            .copied()
+            .collect()
+    }
+}
+
+/// Watches link events until the store holds `target` readings in `session`, or `deadline`
+/// passes. The store, not the event stream, is the judge of what was committed. Calls
+/// `on_progress(count)` whenever the count of stored readings grows (to unplug at chosen
+/// moments, for example).
+pub async fn watch_until_stored(
+    events: &mut mpsc::Receiver<LinkEvent>,
+    store: &Store,
+    session: SessionId,
+    target: usize,
+    deadline: Instant,
+    obs: &mut Observed,
+    mut on_progress: impl FnMut(usize),
+) -> Result<(), String> {
+    let mut stored = 0usize;
+    let mut tick = tokio::time::interval(Duration::from_millis(50));
+    loop {
+        let count = {
+            let store = store.clone();
+            tokio::task::spawn_blocking(move || store.reading_count(session))
+                .await
+                .map_err(|e| e.to_string())?
+                .map_err(|e| format!("counting stored readings: {e}"))? as usize
+        };
+        if count > stored {
+            stored = count;
+            on_progress(stored);
+        }
+        if stored >= target {
+            return Ok(());
+        }
+        tokio::select! {
+            _ = tokio::time::sleep_until(deadline) => {
+                return Err(format!(
+                    "timed out with {stored} of {target} readings stored ({} commit events); \
+                     {} queue-full faults; last status: {:?}; link counters: {:?}",
+                    obs.committed.len(),
+                    obs.queue_full_faults().len(),
+                    obs.last_status,
+                    obs.counters
+                ));
+            }
+            ev = events.recv() => match ev {
+                None => return Err("the link stopped".into()),
+                Some(ev) => {
+                    let commit = matches!(ev, LinkEvent::ReadingCommitted { .. });
+                    obs.record(ev);
+                    if !commit {
+                        continue;
+                    }
+                }
+            },
+            _ = tick.tick() => {}
+        }
+    }
+}
+
+/// Checks that a session holds exactly `expected` (tenths of a millimetre), each once, in
+/// order, with sequence numbers 0, 1, 2, ... of one device boot. Returns the readings.
+pub fn check_session_exactly(
+    store: &Store,
+    session: SessionId,
+    expected: &[u32],
+) -> Result<Vec<StoredReading>, String> {
+    let detail = store
+        .open_session(session)
+        .map_err(|e| format!("opening session {session}: {e}"))?;
+    let readings = detail.readings;
+    if readings.len() != expected.len() {
+        return Err(format!(
+            "session {session} holds {} readings, expected {}",
+            readings.len(),
+            expected.len()
+        ));
+    }
+    let boot = readings.first().map(|r| r.device.boot_id);
+    for (i, (r, &want)) in readings.iter().zip(expected).enumerate() {
+        if r.device.device_id != DEVICE_ID || Some(r.device.boot_id) != boot {
+            return Err(format!("reading {i} from another device or boot: {r:?}"));
+        }
+        if r.device.seq as usize != i {
+            return Err(format!(
+                "reading {i} has seq {} (lost, doubled or out of order)",
+                r.device.seq
+            ));
+        }
+        if r.device.value_tenth_mm != want {
+            return Err(format!(
+                "reading {i} (seq {}) holds {} tenths of a mm, the tape confirmed {want}",
+                r.device.seq, r.device.value_tenth_mm
+            ));
+        }
+    }
+    if readings.windows(2).any(|w| w[0].id.0 >= w[1].id.0) {
+        return Err("readings not committed in order".into());
+    }
+    Ok(readings)
+}
+
+/// Path of the `tapeshape` binary, built on demand in this workspace's target folder (the
+/// binary belongs to another package, so cargo gives integration tests no
+/// `CARGO_BIN_EXE_tapeshape` for it).
+pub fn tapeshape_binary() -> PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let status = std::process::Command::new(std::env::var("CARGO").unwrap_or("cargo".into()))
+        .args(["build", "-p", "tapeshape", "--bin", "tapeshape"])
+        .current_dir(&root)
+        .status()
+        .expect("running cargo build for the tapeshape binary");
+    assert!(status.success(), "cargo build -p tapeshape failed");
+    // This test executable lives in <target>/<profile>/deps/; the binary in <target>/debug/.
+    let exe = std::env::current_exe().expect("current_exe");
+    let target = exe
+        .ancestors()
+        .nth(3)
+        .expect("test executable under <target>/<profile>/deps")
+        .to_path_buf();
+    let bin = target.join("debug").join("tapeshape");
+    assert!(bin.is_file(), "no tapeshape binary at {}", bin.display());
+    bin
+}
+
+/// Reads the proxy's statistics in a form fit for assertion messages.
+pub fn proxy_summary(p: &ProxyHandle) -> String {
+    let s = p.stats();
+    format!(
+        "device->host: {} bytes in, {} corrupted ({} flipped, {} dropped, {} doubled); \
+         {} lost while the host was away; {} unplugs, {} replugs",
+        s.device_to_host.bytes_in,
+        s.device_to_host.bytes_corrupted(),
+        s.device_to_host.bits_flipped,
+        s.device_to_host.bytes_dropped,
+        s.device_to_host.bytes_duplicated,
+        s.lost_host_absent,
+        s.unplugs,
+        s.replugs
+    )
+}
