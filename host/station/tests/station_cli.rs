@@ -207,3 +207,67 @@ async fn demo_stores_exactly_what_the_simulated_tape_confirmed() {
         assert!(stdout.contains(name.as_str()), "{stdout}");
     }
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn ctrl_c_stops_cleanly_and_resume_continues_the_set() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    let dev = SimDevice::start(common::compatible());
+    let set = tapeshape_measure::MeasurementSet::builtin("quick").unwrap();
+    let names: Vec<String> = set.definitions.iter().map(|d| d.name.clone()).collect();
+    let value = |i: usize| 2000 + 10 * u32::try_from(i).unwrap();
+    let mut child = tapeshape(&data, &["station", "--customer", "cleo", "--set", "quick"])
+        .arg("--port")
+        .arg(&dev.port)
+        .spawn()
+        .unwrap();
+    for i in 0..3 {
+        dev.state.lock().unwrap().take(value(i));
+    }
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+    while dev.state.lock().unwrap().acked != Some(2) {
+        assert!(tokio::time::Instant::now() < deadline, "first 3 not acked");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let kill = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = wait_exit(&mut child, 10).await;
+    let (stdout, _) = output_of(child);
+    assert!(status.success(), "{stdout}");
+    assert!(stdout.contains("stopped"), "{stdout}");
+
+    // The rest of the set, in a second run that resumes the session.
+    for i in 3..names.len() {
+        dev.state.lock().unwrap().take(value(i));
+    }
+    let mut child = tapeshape(&data, &["station", "--resume", "--exit-when-complete"])
+        .arg("--port")
+        .arg(&dev.port)
+        .spawn()
+        .unwrap();
+    let status = wait_exit(&mut child, 20).await;
+    let (stdout, stderr) = output_of(child);
+    assert!(status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains(&format!("next {}", names[3])), "{stdout}");
+
+    let store = Store::open(&data).unwrap();
+    let list = store.list_sessions().unwrap();
+    assert_eq!(list.len(), 1);
+    assert_eq!(list[0].session.status, SessionStatus::Done);
+    let got: Vec<(String, u32)> = store
+        .open_session(list[0].session.id)
+        .unwrap()
+        .readings
+        .into_iter()
+        .map(|r| (r.measurement, r.device.value_tenth_mm))
+        .collect();
+    let want: Vec<(String, u32)> = names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (n.clone(), value(i)))
+        .collect();
+    assert_eq!(got, want);
+}
