@@ -124,7 +124,11 @@ fn interp(x: f64, knots: [(f64, f64); 4]) -> f64 {
 /// (anny 0.79217), muscle, weight, proportions, cupsize and firmness 0.5,
 /// height 0.37 (between anny's calibrated adult means, 0.39 male and 0.35
 /// female), equal race weights. Its stature is 1.688 m.
+///
+/// When read with serde, missing fields take their default values and
+/// unknown field names are errors (a misspelt `hieght` is not ignored).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Phenotype {
     /// 0 = male, 1 = female.
     pub gender: f64,
@@ -375,6 +379,21 @@ mod tests {
             norace.validate(),
             Err(PhenotypeError::BadRace { .. })
         ));
+    }
+
+    #[test]
+    fn phenotype_json_defaults_and_typos() {
+        let p: Phenotype = serde_json::from_str(r#"{"gender": 1.0, "height": 0.3}"#).unwrap();
+        assert_eq!(
+            p,
+            Phenotype {
+                gender: 1.0,
+                height: 0.3,
+                ..Default::default()
+            }
+        );
+        let e = serde_json::from_str::<Phenotype>(r#"{"hieght": 0.3}"#).unwrap_err();
+        assert!(e.to_string().contains("hieght"), "{e}");
     }
 
     #[test]
