@@ -13,7 +13,7 @@ use tapeshape_mesh::{Anatomy, Topology, Vec3};
 
 use crate::cut::{convex_hull, CutError, CutPoint, PartCut};
 use crate::error::{suggest, MeasureError};
-use crate::geodesic::{EdgeGraph, PathError};
+use crate::geodesic::{EdgeGraph, GeodesicMethod, PathError};
 use crate::set::{Kind, MeasurementSet, DEFAULT_FLOOR};
 use crate::support::{Measured, Support, SupportPoint};
 
@@ -32,7 +32,8 @@ enum Op {
     Chain {
         points: Vec<u32>,
         names: Vec<String>,
-        geodesic: bool,
+        /// `None` for straight segments.
+        geodesic: Option<GeodesicMethod>,
         closed: bool,
     },
     /// Vertical distance from the lowest of `floors` to `landmark`.
@@ -126,21 +127,27 @@ impl MeasurementSet {
                 cut_keys.push(key);
                 Ok(cuts.len() - 1)
             };
-            let chain =
-                |names: Vec<&String>, geodesic: bool, closed: bool| -> Result<Op, MeasureError> {
-                    Ok(Op::Chain {
-                        points: names.iter().map(|n| lm(n)).collect::<Result<_, _>>()?,
-                        names: names.into_iter().cloned().collect(),
-                        geodesic,
-                        closed,
-                    })
-                };
+            let chain = |names: Vec<&String>,
+                         geodesic: Option<GeodesicMethod>,
+                         closed: bool|
+             -> Result<Op, MeasureError> {
+                Ok(Op::Chain {
+                    points: names.iter().map(|n| lm(n)).collect::<Result<_, _>>()?,
+                    names: names.into_iter().cloned().collect(),
+                    geodesic,
+                    closed,
+                })
+            };
             let op = match &def.kind {
-                Kind::Euclidean { from, to } => chain(vec![from, to], false, false)?,
-                Kind::Geodesic { from, to } => chain(vec![from, to], true, false)?,
-                Kind::Path { landmarks } => chain(landmarks.iter().collect(), false, false)?,
-                Kind::GeodesicPath { landmarks } => chain(landmarks.iter().collect(), true, false)?,
-                Kind::GeodesicLoop { landmarks } => chain(landmarks.iter().collect(), true, true)?,
+                Kind::Euclidean { from, to } => chain(vec![from, to], None, false)?,
+                Kind::Geodesic { from, to, method } => chain(vec![from, to], Some(*method), false)?,
+                Kind::Path { landmarks } => chain(landmarks.iter().collect(), None, false)?,
+                Kind::GeodesicPath { landmarks, method } => {
+                    chain(landmarks.iter().collect(), Some(*method), false)?
+                }
+                Kind::GeodesicLoop { landmarks, method } => {
+                    chain(landmarks.iter().collect(), Some(*method), true)?
+                }
                 Kind::Height { landmark, floor } => Op::Height {
                     landmark: lm(landmark)?,
                     floors: match floor {
@@ -349,36 +356,47 @@ impl CompiledSet {
                         return Err(non_finite(v));
                     }
                 }
-                if !*geodesic {
-                    let pts = points.iter().map(|&v| SupportPoint::vertex(v)).collect();
-                    chain_support(pts, *closed, None)
-                } else {
-                    let k = points.len();
-                    let legs = if *closed { k } else { k - 1 };
-                    let mut verts: Vec<u32> = vec![points[0]];
-                    for i in 0..legs {
-                        let (a, b) = (points[i], points[(i + 1) % k]);
-                        let path = self.graph.shortest_path(p, a, b).map_err(|e| match e {
-                            PathError::NonFinite(v) => non_finite(v),
-                            PathError::Unreachable => MeasureError::NoPath {
-                                measurement: name.clone(),
-                                from: names[i].clone(),
-                                to: names[(i + 1) % k].clone(),
-                            },
-                        })?;
-                        verts.extend_from_slice(&path[1..]);
+                match geodesic {
+                    None => {
+                        let pts = points.iter().map(|&v| SupportPoint::vertex(v)).collect();
+                        chain_support(pts, *closed, None)
                     }
-                    if *closed {
-                        // The last leg ends where the loop started: close the
-                        // loop with a segment back to point 0 instead of a
-                        // duplicate point.
-                        verts.pop();
-                        if verts.len() == 1 {
-                            verts.push(verts[0]); // degenerate loop of one vertex
+                    Some(method) => {
+                        let k = points.len();
+                        let legs = if *closed { k } else { k - 1 };
+                        let mut pts: Vec<SupportPoint> = vec![SupportPoint::vertex(points[0])];
+                        for i in 0..legs {
+                            let (a, b) = (points[i], points[(i + 1) % k]);
+                            let path =
+                                self.graph.shortest_path(p, a, b, *method).map_err(
+                                    |e| match e {
+                                        PathError::NonFinite(v) => non_finite(v),
+                                        PathError::Unreachable => MeasureError::NoPath {
+                                            measurement: name.clone(),
+                                            from: names[i].clone(),
+                                            to: names[(i + 1) % k].clone(),
+                                        },
+                                    },
+                                )?;
+                            pts.extend(path[1..].iter().map(|&(a, b, t)| {
+                                if a == b {
+                                    SupportPoint::vertex(a)
+                                } else {
+                                    SupportPoint { a, b, t }
+                                }
+                            }));
                         }
+                        if *closed {
+                            // The last leg ends where the loop started: close the
+                            // loop with a segment back to point 0 instead of a
+                            // duplicate point.
+                            pts.pop();
+                            if pts.len() == 1 {
+                                pts.push(pts[0]); // degenerate loop of one vertex
+                            }
+                        }
+                        chain_support(pts, *closed, None)
                     }
-                    let pts = verts.into_iter().map(SupportPoint::vertex).collect();
-                    chain_support(pts, *closed, None)
                 }
             }
             Op::Height { landmark, floors } => {

@@ -17,11 +17,29 @@ use std::collections::BinaryHeap;
 
 use tapeshape_mesh::{Topology, Vec3};
 
-/// CSR adjacency of the edge graph.
+/// CSR adjacency of the edge graph, plus (for the `unfolded` method) each
+/// vertex's "across" neighbours: the opposite vertex `w` of the triangle on
+/// the other side of each edge `(a, b)` of the vertex's own triangles.
 #[derive(Debug, Clone)]
 pub(crate) struct EdgeGraph {
     offsets: Vec<u32>,
     neighbours: Vec<u32>,
+    across_offsets: Vec<u32>,
+    /// `[w, a, b]`: reach `w` by crossing edge `(a, b)`.
+    across: Vec<[u32; 3]>,
+}
+
+/// How a geodesic is computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GeodesicMethod {
+    /// Dijkstra on the mesh's edges, as in the paper (default).
+    #[default]
+    Edges,
+    /// Dijkstra on the edges plus straight paths across each pair of
+    /// triangles sharing an edge (the two triangles unfolded into the plane):
+    /// a surface path through edge points, with a much smaller bias.
+    Unfolded,
 }
 
 /// Why no path came back.
@@ -32,6 +50,9 @@ pub(crate) enum PathError {
     /// This vertex has a non-finite coordinate.
     NonFinite(u32),
 }
+
+/// A point of a surface path: `(1 - t) p_a + t p_b` (`a == b`, `t == 0` for a vertex).
+pub(crate) type PathPoint = (u32, u32, f64);
 
 #[derive(PartialEq)]
 struct Item {
@@ -67,6 +88,40 @@ fn finite(p: Vec3) -> bool {
     p.iter().all(|x| x.is_finite())
 }
 
+/// The straight path from `c` across edge `(a, b)` to `d` in the unfolding
+/// of the two triangles `(a, b, c)` and `(b, a, d)`: `(t, length)` with the
+/// crossing `q = (1 - t) p_a + t p_b`, or `None` when the straight line
+/// misses the open edge (then a path through `a` or `b` is shorter).
+/// `length = |c - q| + |q - d|` in 3D, because each triangle is isometric to
+/// its unfolded copy and `q` lies on the shared edge.
+fn across(pc: Vec3, pa: Vec3, pb: Vec3, pd: Vec3) -> Option<(f64, f64)> {
+    let e = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
+    let l2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+    if l2.is_nan() || l2 <= 0.0 {
+        return None;
+    }
+    let l = l2.sqrt();
+    let u = [e[0] / l, e[1] / l, e[2] / l];
+    let coords = |q: Vec3| {
+        let r = [q[0] - pa[0], q[1] - pa[1], q[2] - pa[2]];
+        let x = r[0] * u[0] + r[1] * u[1] + r[2] * u[2];
+        let h2 = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) - x * x;
+        (x, h2.max(0.0).sqrt())
+    };
+    let (xc, hc) = coords(pc);
+    let (xd, hd) = coords(pd);
+    if (hc + hd).is_nan() || hc + hd <= 0.0 {
+        return None;
+    }
+    let x = xc + (xd - xc) * hc / (hc + hd);
+    let t = x / l;
+    if !(t > 0.0 && t < 1.0) {
+        return None;
+    }
+    let q = [pa[0] + t * e[0], pa[1] + t * e[1], pa[2] + t * e[2]];
+    Some((t, dist(pc, q) + dist(q, pd)))
+}
+
 impl EdgeGraph {
     /// The edge graph of `topology`.
     pub(crate) fn new(topology: &Topology) -> Self {
@@ -78,32 +133,64 @@ impl EdgeGraph {
             neighbours.extend_from_slice(topology.ring(v));
             offsets.push(neighbours.len() as u32);
         }
+        let mut lists: Vec<Vec<[u32; 3]>> = vec![Vec::new(); n];
+        for (e, &[a, b]) in topology.edges().iter().enumerate() {
+            let faces: Vec<u32> = topology.edge_faces(e).collect();
+            if faces.len() != 2 {
+                continue;
+            }
+            let opposite = |f: u32| {
+                topology.faces()[f as usize]
+                    .into_iter()
+                    .find(|&v| v != a && v != b)
+            };
+            if let (Some(c), Some(d)) = (opposite(faces[0]), opposite(faces[1])) {
+                if c != d {
+                    lists[c as usize].push([d, a, b]);
+                    lists[d as usize].push([c, a, b]);
+                }
+            }
+        }
+        let mut across_offsets = Vec::with_capacity(n + 1);
+        let mut across = Vec::new();
+        across_offsets.push(0);
+        for l in lists {
+            across.extend(l);
+            across_offsets.push(across.len() as u32);
+        }
         Self {
             offsets,
             neighbours,
+            across_offsets,
+            across,
         }
     }
 
-    /// Vertices of a shortest edge path from `from` to `to` (both included,
+    /// Points of a shortest path from `from` to `to` (both included, just
     /// `[from]` when they are equal), for positions `p` (metres, one per
-    /// vertex of the topology).
+    /// vertex of the topology). With [`GeodesicMethod::Edges`] every point is
+    /// a vertex; with [`GeodesicMethod::Unfolded`] a step across an edge adds
+    /// the crossing point on that edge.
     pub(crate) fn shortest_path(
         &self,
         p: &[Vec3],
         from: u32,
         to: u32,
-    ) -> Result<Vec<u32>, PathError> {
+        method: GeodesicMethod,
+    ) -> Result<Vec<PathPoint>, PathError> {
         for v in [from, to] {
             if !finite(p[v as usize]) {
                 return Err(PathError::NonFinite(v));
             }
         }
         if from == to {
-            return Ok(vec![from]);
+            return Ok(vec![(from, from, 0.0)]);
         }
         let n = p.len();
         let mut best = vec![f64::INFINITY; n];
-        let mut pred = vec![u32::MAX; n];
+        // Predecessor vertex, and the crossed edge `(a, b)` for an across step
+        // (`u32::MAX` for a plain edge).
+        let mut pred = vec![(u32::MAX, u32::MAX, u32::MAX); n];
         let mut heap = BinaryHeap::new();
         best[from as usize] = 0.0;
         heap.push(Item { dist: 0.0, v: from });
@@ -112,14 +199,22 @@ impl EdgeGraph {
                 continue; // stale entry
             }
             if v == to {
-                let mut path = vec![to];
+                let mut rev: Vec<PathPoint> = vec![(to, to, 0.0)];
                 let mut u = to;
                 while u != from {
-                    u = pred[u as usize];
-                    path.push(u);
+                    let (w, a, b) = pred[u as usize];
+                    if a != u32::MAX {
+                        // Recompute the crossing (same positions, same result).
+                        let (t, _) =
+                            across(p[w as usize], p[a as usize], p[b as usize], p[u as usize])
+                                .expect("the crossing existed during the search");
+                        rev.push((a, b, t));
+                    }
+                    rev.push((w, w, 0.0));
+                    u = w;
                 }
-                path.reverse();
-                return Ok(path);
+                rev.reverse();
+                return Ok(rev);
             }
             let pv = p[v as usize];
             let (s, e) = (
@@ -135,8 +230,26 @@ impl EdgeGraph {
                 let nd = d + len;
                 if nd < best[w as usize] {
                     best[w as usize] = nd;
-                    pred[w as usize] = v;
+                    pred[w as usize] = (v, u32::MAX, u32::MAX);
                     heap.push(Item { dist: nd, v: w });
+                }
+            }
+            if method == GeodesicMethod::Unfolded {
+                let (s, e) = (
+                    self.across_offsets[v as usize] as usize,
+                    self.across_offsets[v as usize + 1] as usize,
+                );
+                for &[w, a, b] in &self.across[s..e] {
+                    let Some((_, len)) = across(pv, p[a as usize], p[b as usize], p[w as usize])
+                    else {
+                        continue; // misses the edge, or non-finite (caught by the edge steps)
+                    };
+                    let nd = d + len;
+                    if nd < best[w as usize] {
+                        best[w as usize] = nd;
+                        pred[w as usize] = (v, a, b);
+                        heap.push(Item { dist: nd, v: w });
+                    }
                 }
             }
         }

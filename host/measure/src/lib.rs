@@ -18,8 +18,10 @@
 //!   tape laid over the outside of a straight limb).
 //! - `geodesic {from, to}`: the shortest path on the mesh's edge graph
 //!   (Dijkstra, as in the paper); support = the path's vertices. It is
-//!   longer than the true surface geodesic (on an icosphere by the bias
-//!   stated in `docs/measurements.md`).
+//!   about 5.7% longer than the true surface geodesic on an icosphere
+//!   (`docs/measurements.md`). `method = "unfolded"` also steps straight
+//!   across each pair of triangles sharing an edge (support = vertices and
+//!   edge crossings) and converges to the surface geodesic.
 //! - `geodesic_path {landmarks}` / `geodesic_loop {landmarks}`: geodesics
 //!   along an open or closed landmark list (the paper's knee and arm
 //!   circumferences are loops of four geodesics).
@@ -60,5 +62,5 @@ pub mod support;
 
 pub use compiled::CompiledSet;
 pub use error::MeasureError;
-pub use set::{Class, Definition, Kind, MeasurementSet, Tolerance, BUILTIN_SETS};
+pub use set::{Class, Definition, GeodesicMethod, Kind, MeasurementSet, Tolerance, BUILTIN_SETS};
 pub use support::{Measured, Support, SupportPoint};

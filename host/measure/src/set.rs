@@ -36,7 +36,7 @@
 //! |---|---|---|
 //! | `euclidean` | `from`, `to` | straight distance |
 //! | `path` | `landmarks` (>= 2) | sum of straight segments along the list (open) |
-//! | `geodesic` | `from`, `to` | shortest path on the edge graph (Dijkstra) |
+//! | `geodesic` | `from`, `to`, optional `method` | shortest path on the edge graph (Dijkstra; `method = "unfolded"` also steps straight across triangle pairs) |
 //! | `geodesic_path` | `landmarks` (>= 2) | sum of geodesics along the list (open) |
 //! | `geodesic_loop` | `landmarks` (>= 2) | sum of geodesics around the list, closed |
 //! | `circumference` | `anchor`, `normal`, `parts`, optional `through` (2 landmarks) | perimeter of the convex hull of the plane cut |
@@ -44,6 +44,7 @@
 //! | `breadth`, `depth` | `anchor`, `normal`, `parts`, `axis` | hull extent of the plane cut along `axis` |
 
 use crate::error::{suggest, MeasureError};
+pub use crate::geodesic::GeodesicMethod;
 use tapeshape_mesh::Vec3;
 
 /// The built-in sets: `(name, TOML text)`.
@@ -179,16 +180,22 @@ pub enum Kind {
         from: String,
         /// End landmark.
         to: String,
+        /// How the path is computed (`method = "edges"` (default) or `"unfolded"`).
+        method: GeodesicMethod,
     },
     /// Sum of geodesics along an open list of landmarks.
     GeodesicPath {
         /// Landmarks in order (at least two).
         landmarks: Vec<String>,
+        /// How each leg is computed.
+        method: GeodesicMethod,
     },
     /// Sum of geodesics around a closed list of landmarks (last back to first).
     GeodesicLoop {
         /// Landmarks in order (at least two).
         landmarks: Vec<String>,
+        /// How each leg is computed.
+        method: GeodesicMethod,
     },
     /// Perimeter of the convex hull of the plane cut through `anchor`.
     Circumference {
@@ -254,10 +261,12 @@ impl Kind {
     /// Every landmark name the kind refers to (the default floor included).
     pub fn landmarks(&self) -> Vec<&str> {
         match self {
-            Kind::Euclidean { from, to } | Kind::Geodesic { from, to } => vec![from, to],
+            Kind::Euclidean { from, to } | Kind::Geodesic { from, to, .. } => vec![from, to],
             Kind::Path { landmarks }
-            | Kind::GeodesicPath { landmarks }
-            | Kind::GeodesicLoop { landmarks } => landmarks.iter().map(String::as_str).collect(),
+            | Kind::GeodesicPath { landmarks, .. }
+            | Kind::GeodesicLoop { landmarks, .. } => {
+                landmarks.iter().map(String::as_str).collect()
+            }
             Kind::Circumference {
                 anchor, through, ..
             } => std::iter::once(anchor.as_str())
@@ -664,6 +673,17 @@ fn is_snake_case(s: &str) -> bool {
             .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
 }
 
+fn method(f: &mut Fields<'_>) -> Result<GeodesicMethod, MeasureError> {
+    match f.opt_string("method")?.as_deref() {
+        None | Some("edges") => Ok(GeodesicMethod::Edges),
+        Some("unfolded") => Ok(GeodesicMethod::Unfolded),
+        Some(other) => Err(f.err(format!(
+            "unknown geodesic method `{other}`{}; methods are: edges (Dijkstra on edges, the paper's), unfolded (also straight across triangle pairs)",
+            suggest(other, ["edges", "unfolded"])
+        ))),
+    }
+}
+
 fn parse_definition(t: &toml::Table, set: &str, index: usize) -> Result<Definition, MeasureError> {
     let name_for_errors = t
         .get("name")
@@ -689,15 +709,18 @@ fn parse_definition(t: &toml::Table, set: &str, index: usize) -> Result<Definiti
         "geodesic" => Kind::Geodesic {
             from: f.string("from")?,
             to: f.string("to")?,
+            method: method(&mut f)?,
         },
         "path" => Kind::Path {
             landmarks: f.strings("landmarks", 2)?,
         },
         "geodesic_path" => Kind::GeodesicPath {
             landmarks: f.strings("landmarks", 2)?,
+            method: method(&mut f)?,
         },
         "geodesic_loop" => Kind::GeodesicLoop {
             landmarks: f.strings("landmarks", 2)?,
+            method: method(&mut f)?,
         },
         "circumference" => Kind::Circumference {
             anchor: f.string("anchor")?,
