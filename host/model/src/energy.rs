@@ -160,15 +160,26 @@ pub fn smoothness_energy(
     edges: &[[u32; 2]],
     p: &[f64],
     p_ref: &[f64],
+    grad: Option<(&mut [f64], f64)>,
+) -> f64 {
+    let disp: Vec<f64> = p.iter().zip(p_ref).map(|(a, b)| a - b).collect();
+    smoothness_of_displacement(edges, &disp, grad)
+}
+
+/// [`smoothness_energy`] from the displacement `D = p - p_ref` (flat, 3V),
+/// for callers that keep `D` in a buffer (one gather per edge end instead of two).
+pub fn smoothness_of_displacement(
+    edges: &[[u32; 2]],
+    disp: &[f64],
     mut grad: Option<(&mut [f64], f64)>,
 ) -> f64 {
     let mut e = 0.0;
     for &[a, b] in edges {
         let (a, b) = (3 * a as usize, 3 * b as usize);
         let dd = [
-            (p[a] - p_ref[a]) - (p[b] - p_ref[b]),
-            (p[a + 1] - p_ref[a + 1]) - (p[b + 1] - p_ref[b + 1]),
-            (p[a + 2] - p_ref[a + 2]) - (p[b + 2] - p_ref[b + 2]),
+            disp[a] - disp[b],
+            disp[a + 1] - disp[b + 1],
+            disp[a + 2] - disp[b + 2],
         ];
         e += 2.0 * dot(dd, dd);
         if let Some((g, scale)) = grad.as_mut() {

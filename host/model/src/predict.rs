@@ -644,12 +644,12 @@ impl ShapeModel {
             if terms.is_empty() {
                 break;
             }
-            let obj = VertexObjective {
+            let obj = VertexObjective::new(
                 terms,
-                edges: topology.edges(),
-                reference: reference_mm.as_flattened(),
-                lambda: settings.lambda,
-            };
+                topology.edges(),
+                reference_mm.as_flattened(),
+                settings.lambda,
+            );
             match minimise(&obj, x_mm.clone(), &settings.stop, settings.step2_solver) {
                 Ok((x_new, info)) => {
                     x_mm = x_new;
