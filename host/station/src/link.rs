@@ -791,26 +791,31 @@ impl LinkTask {
             .await;
         match outcome {
             Ok(CommitOutcome::Committed(reading)) => {
-                // Committed and durable: now, and only now, acknowledge.
-                self.write(
-                    conn,
-                    &HostMsg::Ack {
-                        boot_id: r.boot_id,
-                        seq: r.seq,
-                    },
-                )
-                .await?;
+                // The name is used whether or not the ack gets through: a
+                // retransmission after a failed ack is a duplicate, and the
+                // next new reading must take the next name.
                 self.counters.committed += 1;
                 if let Naming::Script(q) = &mut self.naming {
                     if name.is_some() && q.front() == name.as_ref() {
                         q.pop_front();
                     }
                 }
+                // Committed and durable: now, and only now, acknowledge.
+                let acked = self
+                    .write(
+                        conn,
+                        &HostMsg::Ack {
+                            boot_id: r.boot_id,
+                            seq: r.seq,
+                        },
+                    )
+                    .await;
                 self.emit(LinkEvent::ReadingCommitted {
                     reading,
                     unit_shown: r.unit_shown,
                 })
                 .await;
+                acked?;
             }
             Ok(CommitOutcome::Duplicate { last_committed_seq }) => {
                 self.on_duplicate(conn, r, last_committed_seq).await?;
