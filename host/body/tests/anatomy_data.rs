@@ -268,7 +268,7 @@ fn landmarks_are_plausible_on_every_reference_body() {
         // Lengths and breadths as a fraction of stature, against the ANSUR II
         // mean ratio (male and female means agree within a few percent):
         // within a factor 1 +- tol of it.
-        let lengths: [(&str, &str, f64, f64); 13] = [
+        let lengths: [(&str, &str, f64, f64); 15] = [
             ("glabella", "opisthocranion", 0.115, 0.3),  // head length
             ("sellion", "menton", 0.070, 0.3),           // menton-sellion length
             ("zygion_right", "zygion_left", 0.081, 0.3), // bizygomatic breadth
@@ -282,6 +282,8 @@ fn landmarks_are_plausible_on_every_reference_body() {
             ("lateral_malleolus_right", "sphyrion_right", 0.042, 0.4), // bimalleolar breadth
             ("stylion_right", "ulnar_styloid_right", 0.032, 0.4), // wrist breadth (no ANSUR item; ~55 mm)
             ("exocanthion_right", "exocanthion_left", 0.055, 0.3), // biocular breadth (no ANSUR item; ~95 mm)
+            ("endocanthion_right", "endocanthion_left", 0.019, 0.35), // intercanthal breadth (no ANSUR item; ~32 mm)
+            ("cheilion_right", "cheilion_left", 0.029, 0.35), // mouth breadth (no ANSUR item; ~50 mm)
         ];
         for (a1, a2, ratio, tol) in lengths {
             let r = dist(a1, a2) / stature;
@@ -301,6 +303,22 @@ fn landmarks_are_plausible_on_every_reference_body() {
             ("exocanthion_right", "endocanthion_right", 0),
             ("lateral_malleolus_right", "sphyrion_right", 0),
         ];
+        // Face order from top to bottom.
+        let down = [
+            "vertex",
+            "glabella",
+            "sellion",
+            "pronasale",
+            "subnasale",
+            "cheilion_right",
+            "menton",
+            "suprasternale",
+        ];
+        for w in down.windows(2) {
+            if p(w[0])[2] <= p(w[1])[2] {
+                failures.push(format!("body{body}: {} not above {}", w[0], w[1]));
+            }
+        }
         for (front, back, axis) in pairs {
             assert!(
                 p(front)[axis] > p(back)[axis],

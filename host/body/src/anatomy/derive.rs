@@ -350,6 +350,44 @@ impl Ctx<'_> {
         });
         c
     }
+    /// Whether the ray from vertex `k` towards +y (the front) leaves the body
+    /// without crossing any body triangle not incident to `k` (Moller-Trumbore).
+    fn visible_from_front(&self, k: u32, tris: &[[u32; 3]]) -> bool {
+        let o = self.p[k as usize];
+        let d = [0.0, 1.0, 0.0];
+        !tris.iter().any(|t| {
+            if t.contains(&k) {
+                return false;
+            }
+            let [a, b, c] = t.map(|i| self.p[i as usize]);
+            let (e1, e2) = (sub(b, a), sub(c, a));
+            let pv = [
+                d[1] * e2[2] - d[2] * e2[1],
+                d[2] * e2[0] - d[0] * e2[2],
+                d[0] * e2[1] - d[1] * e2[0],
+            ];
+            let det = dot(e1, pv);
+            if det.abs() < 1e-15 {
+                return false;
+            }
+            let tv = sub(o, a);
+            let u = dot(tv, pv) / det;
+            if !(0.0..=1.0).contains(&u) {
+                return false;
+            }
+            let qv = [
+                tv[1] * e1[2] - tv[2] * e1[1],
+                tv[2] * e1[0] - tv[0] * e1[2],
+                tv[0] * e1[1] - tv[1] * e1[0],
+            ];
+            let v = dot(d, qv) / det;
+            if v < 0.0 || u + v > 1.0 {
+                return false;
+            }
+            dot(e2, qv) / det > 1e-9
+        })
+    }
+
     /// Points where body edges between vertices of `parts` cross the plane
     /// through `c` with unit normal `n`.
     fn cut(&self, parts: &[u8], right_only: bool, c: V3, n: V3) -> Vec<V3> {
@@ -699,7 +737,17 @@ fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
         .map(|&i| norm(sub(c.base[i], centre)))
         .sum::<f64>()
         / eye_ids.len() as f64;
-    let lid = |k: u32| norm(sub(p(k), centre)) < radius + 0.002;
+    // Body triangles near the face, for front-visibility tests.
+    let face_tris: Vec<[u32; 3]> = c
+        .pack
+        .triangles
+        .iter()
+        .copied()
+        .filter(|t| t.iter().all(|&v| c.vpart[v as usize] != NONE))
+        .filter(|t| t.iter().any(|&v| norm(sub(p(v), centre)) < 0.12))
+        .collect();
+    let front_visible = |k: u32| c.visible_from_front(k, &face_tris);
+    let lid = |k: u32| norm(sub(p(k), centre)) < radius + 0.002 && front_visible(k);
     let exocanthion = c.argmax(
         right_of(&[HEAD]).filter(|&k| lid(k)),
         |q| q[0],
@@ -707,7 +755,7 @@ fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
     )?;
     sided.push((
         "exocanthion",
-        "eyelid-margin vertices = head vertices within 2 mm of the right eye helper sphere (centre and mean radius of helper-r-eye); the most lateral one".into(),
+        "eyelid-margin vertices = head vertices within 2 mm of the right eye helper sphere (centre and mean radius of helper-r-eye) that are visible from the front (a ray towards +y leaves the body); the most lateral one".into(),
         exocanthion,
     ));
     let endocanthion = c.argmax(
@@ -720,14 +768,26 @@ fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
         "the most medial eyelid-margin vertex (as for exocanthion)".into(),
         endocanthion,
     ));
-    let cheilion = c.argmax(
-        right_of(&[HEAD]).filter(|&k| c.vbone[k as usize].starts_with("oris")),
-        |q| q[0],
-        "cheilion",
-    )?;
+    // Mouth opening rim: front-visible lip vertices with an edge to a lip
+    // vertex that is not front-visible (inside the mouth).
+    let lips: BTreeMap<u32, bool> = right_of(&[HEAD])
+        .filter(|&k| c.vbone[k as usize].starts_with("oris"))
+        .map(|k| (k, front_visible(k)))
+        .collect();
+    let mut rim = std::collections::BTreeSet::new();
+    for &[a, b] in &c.edges {
+        if let (Some(&va), Some(&vb)) = (lips.get(&a), lips.get(&b)) {
+            if va && !vb {
+                rim.insert(a);
+            } else if vb && !va {
+                rim.insert(b);
+            }
+        }
+    }
+    let cheilion = c.argmax(rim.iter().copied(), |q| q[0], "cheilion")?;
     sided.push((
         "cheilion",
-        "most lateral vertex whose dominant bone is a lip bone (oris*)".into(),
+        "lip vertices = vertices whose dominant bone is a lip bone (oris*); the rim of the mouth opening = lip vertices visible from the front (a ray towards +y leaves the body) joined by an edge to a lip vertex that is not (inside the mouth); the most lateral rim vertex".into(),
         cheilion,
     ));
     let gonion = c.argmax(
