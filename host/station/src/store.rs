@@ -1151,6 +1151,17 @@ mod tests {
     }
 
     #[test]
+    fn a_damaged_database_file_is_named_in_the_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join(DB_FILE_NAME);
+        std::fs::write(&file, vec![0x5au8; 8192]).unwrap();
+        let err = Store::open(dir.path()).unwrap_err();
+        let msg = err.to_string();
+        assert!(matches!(err, StoreError::Open { .. }), "{msg}");
+        assert!(msg.contains(&file.display().to_string()), "{msg}");
+    }
+
+    #[test]
     fn explicit_data_dir_wins() {
         let p = Path::new("/some/where");
         assert_eq!(resolve_data_dir(Some(p)).unwrap(), p);
