@@ -1,0 +1,166 @@
+//! The station killed and restarted midway: simulated tape -> firmware logic on the host ->
+//! pty -> proxy (1 % of device->host bytes corrupted) -> the real `tapeshape station` binary,
+//! SIGKILLed after about half of the 1,000 readings and started again with `--resume`.
+//! Nothing may be lost or doubled: the store ends with every reading exactly once, in order.
+
+use std::process::Stdio;
+use std::time::Duration;
+
+use tapeshape::store::Store;
+use tapeshape_sim::faults::FaultPlan;
+use tapeshape_sim::proxy::{Proxy, ProxyConfig};
+use tapeshape_sim::tape::{Script, TapeTiming};
+use tapeshape_tests::{check_session_exactly, proxy_summary, spawn_tape, tapeshape_binary};
+use tokio::io::{AsyncBufReadExt, BufReader};
+use tokio::process::{Child, Command};
+use tokio::time::Instant;
+
+const READINGS: usize = 1000;
+
+/// Starts `tapeshape station` and drains its stdout (a full pipe would stall it), returning
+/// the child and a counter of its `committed` lines.
+fn start_station(
+    bin: &std::path::Path,
+    data: &std::path::Path,
+    port: &std::path::Path,
+    first: bool,
+) -> (Child, tokio::task::JoinHandle<Vec<String>>) {
+    let mut cmd = Command::new(bin);
+    cmd.arg("--data-dir")
+        .arg(data)
+        .arg("station")
+        .arg("--port")
+        .arg(port);
+    if first {
+        cmd.args(["--customer", "e2e-restart"]);
+    } else {
+        cmd.arg("--resume");
+    }
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .kill_on_drop(true)
+        .spawn()
+        .expect("starting tapeshape station");
+    let stdout = child.stdout.take().expect("piped stdout");
+    let lines = tokio::spawn(async move {
+        let mut out = Vec::new();
+        let mut r = BufReader::new(stdout).lines();
+        while let Ok(Some(l)) = r.next_line().await {
+            out.push(l);
+        }
+        out
+    });
+    (child, lines)
+}
+
+async fn stored(store: &Store) -> usize {
+    let store = store.clone();
+    tokio::task::spawn_blocking(move || {
+        let Some(s) = store.latest_unfinished_session()? else {
+            return Ok(0);
+        };
+        store.reading_count(s.id).map(|n| n as usize)
+    })
+    .await
+    .unwrap()
+    .unwrap_or_else(|e: tapeshape::store::StoreError| panic!("reading the store: {e}"))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn host_killed_and_restarted_midway_loses_and_doubles_nothing() {
+    let bin = tapeshape_binary();
+    let started = Instant::now();
+    let device = tapeshape_tests::DeviceUnderTest::harness(0x0000_4E57);
+    let proxy = Proxy::spawn_on_path(
+        device.host_path(),
+        ProxyConfig {
+            device_to_host: FaultPlan::corrupt_bytes(0x5EED_0002, 0.01),
+            ..ProxyConfig::transparent()
+        },
+    )
+    .unwrap();
+    let data = tempfile::tempdir().unwrap();
+    // Create the store first so this process can watch it while the station writes (WAL).
+    let store = Store::open(data.path()).unwrap();
+
+    let (mut station, first_out) = start_station(&bin, data.path(), proxy.host_port_path(), true);
+
+    let script = Script::session(
+        READINGS,
+        0x5EED_0002,
+        2000..15000,
+        Duration::from_millis(20),
+    );
+    let expected = script.confirmed_values();
+    let timeline = script
+        .timeline(TapeTiming {
+            live_interval: Duration::from_millis(10),
+            heartbeat_interval: Duration::from_secs(1),
+        })
+        .unwrap();
+    // Give the station a moment to open its port before the tape starts.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let (tape, _confirms) = spawn_tape(device.tape_path(), timeline, 1.0);
+
+    let deadline = Instant::now() + Duration::from_secs(55);
+    while stored(&store).await < READINGS / 2 {
+        assert!(Instant::now() < deadline, "stalled before the kill");
+        if let Ok(Some(status)) = station.try_wait() {
+            panic!("station exited early: {status}");
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    station.start_kill().unwrap(); // SIGKILL: no chance to clean up
+    let status = station.wait().await.unwrap();
+    assert!(!status.success());
+    let at_kill = stored(&store).await;
+    let first_lines = first_out.await.unwrap();
+    let (mut station, second_out) = start_station(&bin, data.path(), proxy.host_port_path(), false);
+
+    loop {
+        let n = stored(&store).await;
+        if n >= READINGS {
+            break;
+        }
+        if Instant::now() > deadline {
+            panic!(
+                "timed out with {n} of {READINGS} stored ({at_kill} at the kill); proxy: {}",
+                proxy_summary(&proxy)
+            );
+        }
+        if let Ok(Some(status)) = station.try_wait() {
+            panic!("restarted station exited: {status}");
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    tape.await.unwrap().unwrap();
+    // Late retransmissions must not add anything.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    station.start_kill().unwrap();
+    let _ = station.wait().await;
+    let second_lines = second_out.await.unwrap();
+
+    let session = store
+        .latest_unfinished_session()
+        .unwrap()
+        .expect("the station's session");
+    let sessions = store.list_sessions().unwrap();
+    assert_eq!(sessions.len(), 1, "the restart resumed the same session");
+    check_session_exactly(&store, session.id, &expected).unwrap();
+    let committed_lines = first_lines
+        .iter()
+        .chain(&second_lines)
+        .filter(|l| l.starts_with("committed"))
+        .count();
+    assert!(
+        (READINGS - 2..=READINGS).contains(&committed_lines),
+        "the two stations printed {committed_lines} committed lines"
+    );
+    eprintln!(
+        "{READINGS} readings in {:.1} s, station killed at {at_kill}; proxy: {}",
+        started.elapsed().as_secs_f64(),
+        proxy_summary(&proxy)
+    );
+}
