@@ -45,6 +45,37 @@ proptest! {
     }
 }
 
+proptest! {
+    // Bytes from outside never panic the readers: arbitrary input, and valid
+    // files truncated or with one byte changed, give a value or an error.
+    #[test]
+    fn readers_never_panic_on_garbage(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
+        let _ = parse_ply(&bytes, "g.ply", ReadOptions::default());
+        let _ = parse_obj(&String::from_utf8_lossy(&bytes), "g.obj", ReadOptions::default());
+    }
+
+    #[test]
+    fn readers_never_panic_on_damaged_files(
+        m in mesh_strategy(),
+        cut in any::<proptest::sample::Index>(),
+        flip in any::<proptest::sample::Index>(),
+        byte in any::<u8>(),
+        ascii in any::<bool>(),
+    ) {
+        let mut ply = ply_bytes(&m, PlyPrecision::F32);
+        let i = flip.index(ply.len());
+        ply[i] = byte;
+        let _ = parse_ply(&ply, "d.ply", ReadOptions { triangulate_polygons: ascii });
+        let _ = parse_ply(&ply[..cut.index(ply.len())], "t.ply", ReadOptions::default());
+        let obj = obj_string(&m);
+        let mut obj = obj.into_bytes();
+        let j = flip.index(obj.len());
+        obj[j] = byte;
+        let obj = String::from_utf8_lossy(&obj).into_owned();
+        let _ = parse_obj(&obj, "d.obj", ReadOptions { triangulate_polygons: ascii });
+    }
+}
+
 #[test]
 fn headers_state_units_and_frame() {
     let m = Mesh::from_faces(
