@@ -284,6 +284,42 @@ impl Mesh {
     }
 }
 
+impl Mesh {
+    /// The mesh made of the faces `faces` (indices into [`Mesh::faces`], in
+    /// the order given) and only the vertices they use, **kept in their
+    /// original relative order**. Returns the new mesh and, for each of its
+    /// vertices, the index of that vertex in `self`. E.g. the skin of a
+    /// generated body without eyes and tongue. Errors if a face index is out of range.
+    pub fn submesh(&self, faces: &[u32]) -> Result<(Mesh, Vec<u32>), MeshError> {
+        let all = self.faces();
+        let mut used = vec![false; self.vertices.len()];
+        for &f in faces {
+            let face = all.get(f as usize).ok_or(MeshError::FaceOutOfRange {
+                face: f as usize,
+                n_faces: all.len(),
+            })?;
+            for &v in face {
+                used[v as usize] = true;
+            }
+        }
+        let mut new_index = vec![u32::MAX; self.vertices.len()];
+        let mut old_index = Vec::new();
+        for (v, _) in used.iter().enumerate().filter(|(_, &u)| u) {
+            new_index[v] = old_index.len() as u32;
+            old_index.push(v as u32);
+        }
+        let vertices = old_index
+            .iter()
+            .map(|&v| self.vertices[v as usize])
+            .collect();
+        let new_faces = faces
+            .iter()
+            .map(|&f| all[f as usize].map(|v| new_index[v as usize]))
+            .collect();
+        Ok((Mesh::from_faces(vertices, new_faces)?, old_index))
+    }
+}
+
 /// Axis-aligned bounding box of points (metres), `None` for an empty slice.
 pub fn bounding_box(points: &[Vec3]) -> Option<Aabb> {
     let first = *points.first()?;
@@ -373,6 +409,31 @@ mod tests {
         let q = flat.triangle_quality_vs(&m, 1e-9).unwrap();
         assert_eq!(q.degenerate, 8);
         assert_eq!(m.triangle_quality_vs(&m, 1e-9).unwrap().flipped, 0);
+    }
+
+    #[test]
+    fn submesh_keeps_vertex_order() {
+        let a = cuboid(1.0, 1.0, 1.0);
+        let mut v = a.vertices.clone();
+        v.extend(a.vertices.iter().map(|p| [p[0] + 5.0, p[1], p[2]]));
+        let mut faces = a.faces().to_vec();
+        faces.extend(a.faces().iter().map(|f| f.map(|i| i + 8)));
+        let two = Mesh::from_faces(v, faces).unwrap();
+        let second: Vec<u32> = (12..24).collect();
+        let (sub, old) = two.submesh(&second).unwrap();
+        assert_eq!(old, (8..16).collect::<Vec<u32>>());
+        assert_eq!(sub.faces(), a.faces());
+        assert!((sub.signed_volume() - 1.0).abs() < 1e-12);
+        for (k, &o) in old.iter().enumerate() {
+            assert_eq!(sub.vertices[k], two.vertices[o as usize]);
+        }
+        assert!(matches!(
+            two.submesh(&[24]),
+            Err(MeshError::FaceOutOfRange {
+                face: 24,
+                n_faces: 24
+            })
+        ));
     }
 
     #[test]

@@ -53,6 +53,14 @@ pub enum MeshError {
         /// Vertices the topology expects.
         expected: usize,
     },
+    /// A face index that does not exist.
+    #[error("face {face} does not exist: the mesh has {n_faces} faces")]
+    FaceOutOfRange {
+        /// Face index given.
+        face: usize,
+        /// Number of faces.
+        n_faces: usize,
+    },
     /// Two meshes compared face by face do not have the same faces.
     #[error(
         "the meshes have different faces ({got} vs {expected} triangles or a different order)"
