@@ -104,12 +104,17 @@ fn main() {
 
     // One prediction, repeated.
     let targets = targets_of(&test_meas[0]);
-    for (label, solver) in [
-        ("built-in", LbfgsImpl::Builtin),
-        ("argmin", LbfgsImpl::Argmin),
+    for (label, solver, history) in [
+        ("built-in", LbfgsImpl::Builtin, 7),
+        ("built-in, history 5", LbfgsImpl::Builtin, 5),
+        ("argmin", LbfgsImpl::Argmin, 7),
     ] {
         let settings = PredictSettings {
             step2_solver: solver,
+            step2_stop: tapeshape_model::refine::StopRule {
+                history,
+                ..Default::default()
+            },
             ..PredictSettings::default()
         };
         let runs = if quick { 5 } else { 21 };

@@ -183,7 +183,7 @@ impl Pca {
             .enumerate()
             .map(|(r, m)| {
                 let row = &self.basis[r * k..(r + 1) * k];
-                m + row.iter().zip(&scaled).map(|(a, b)| a * b).sum::<f64>()
+                m + crate::refine::dot(row, &scaled)
             })
             .collect()
     }

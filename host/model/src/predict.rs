@@ -97,9 +97,14 @@ pub struct PredictSettings {
     pub lambda: f64,
     /// Rounds of support recomputation per step (paper: 3). 0 = start only.
     pub s: usize,
-    /// L-BFGS stopping rules (paper: 100 iterations, gradient 1e-8, relative
-    /// change 1e8 eps).
+    /// L-BFGS stopping rules of step 1 (paper: 100 iterations, gradient
+    /// 1e-8, relative change 1e8 eps; history 7).
     pub stop: StopRule,
+    /// L-BFGS stopping rules of step 2: the paper's, with history 5 (each
+    /// pair is 2 x 3V doubles streamed twice per iteration; 5 instead of 7
+    /// pairs cut the step-2 time by about a fifth, see
+    /// `docs/results/predict-bench.md`).
+    pub step2_stop: StopRule,
     /// L-BFGS implementation of step 1 (K variables; default argmin: its
     /// More-Thuente line search makes better progress on the stiff quartic
     /// energies and its per-iteration allocations cost nothing at this size).
@@ -120,6 +125,10 @@ impl Default for PredictSettings {
             lambda: 0.1,
             s: 3,
             stop: StopRule::default(),
+            step2_stop: StopRule {
+                history: 5,
+                ..StopRule::default()
+            },
             step1_solver: LbfgsImpl::Argmin,
             step2_solver: LbfgsImpl::Builtin,
             reference_tolerance: 0.001,
@@ -650,7 +659,12 @@ impl ShapeModel {
                 reference_mm.as_flattened(),
                 settings.lambda,
             );
-            match minimise(&obj, x_mm.clone(), &settings.stop, settings.step2_solver) {
+            match minimise(
+                &obj,
+                x_mm.clone(),
+                &settings.step2_stop,
+                settings.step2_solver,
+            ) {
                 Ok((x_new, info)) => {
                     x_mm = x_new;
                     step2_runs.push(info);

@@ -206,7 +206,7 @@ pub fn minimise(
 /// Dot product with four independent partial sums: a plain `sum()` is one
 /// serial dependency chain (floating-point addition is not reassociated), and
 /// the two-loop recursion over 41k variables is mostly dot products.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut acc = [0.0; 4];
     let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
     let tail: f64 = ca
