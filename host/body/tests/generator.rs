@@ -37,6 +37,12 @@ fn topology_counts_components_and_watertight_body() {
     let tpl = m.template();
     let vol = tpl.signed_volume_of(m.body_faces().iter().map(|&f| f as usize));
     assert!(vol > 0.04 && vol < 0.08, "body volume {vol} m^3");
+    // The skin alone: the vertex prefix 0..13,348, closed, one component.
+    let (skin, old) = tpl.submesh(m.body_faces()).unwrap();
+    assert_eq!(old, (0..13_348).collect::<Vec<u32>>());
+    assert!(skin.topology.is_closed());
+    assert_eq!(skin.topology.face_components().count, 1);
+    assert!((skin.signed_volume() - vol).abs() < 1e-12);
 }
 
 #[test]
