@@ -158,6 +158,8 @@ fn main() -> anyhow::Result<()> {
             ("face", lm("pronasale"), 0.12),
             ("neck", lm("suprasternale"), 0.15),
             ("torso", lm("omphalion"), 0.35),
+            ("navel", lm("omphalion"), 0.06),
+            ("shoulder", lm("acromion_right"), 0.12),
             ("hand", lm("stylion_right"), 0.12),
             ("elbow", lm("radiale_right"), 0.12),
             ("knee", lm("patella_right"), 0.12),
