@@ -1,5 +1,11 @@
 //! Shortest paths on the mesh's edge graph (Dijkstra), as in the paper.
 //!
+//! The search is Dijkstra's, ordered by path length plus the straight-line
+//! distance to the target (A*): every step is a surface path at least as
+//! long as its chord, so that bound never over-estimates and is consistent,
+//! and the search returns a shortest path, the same length Dijkstra finds,
+//! while visiting far fewer vertices on long arcs.
+//!
 //! The graph (CSR adjacency) depends only on the topology and is built once
 //! per compiled set; edge weights are the current edge lengths, computed on
 //! the fly, so the same graph serves every body of the template.
@@ -56,7 +62,10 @@ pub(crate) type PathPoint = (u32, u32, f64);
 
 #[derive(PartialEq)]
 struct Item {
+    /// Priority: path length so far plus the straight-line distance to the target.
     dist: f64,
+    /// Path length so far.
+    g: f64,
     v: u32,
 }
 
@@ -193,8 +202,13 @@ impl EdgeGraph {
         let mut pred = vec![(u32::MAX, u32::MAX, u32::MAX); n];
         let mut heap = BinaryHeap::new();
         best[from as usize] = 0.0;
-        heap.push(Item { dist: 0.0, v: from });
-        while let Some(Item { dist: d, v }) = heap.pop() {
+        let target = p[to as usize];
+        heap.push(Item {
+            dist: dist(p[from as usize], target),
+            g: 0.0,
+            v: from,
+        });
+        while let Some(Item { g: d, v, .. }) = heap.pop() {
             if d > best[v as usize] {
                 continue; // stale entry
             }
@@ -231,7 +245,11 @@ impl EdgeGraph {
                 if nd < best[w as usize] {
                     best[w as usize] = nd;
                     pred[w as usize] = (v, u32::MAX, u32::MAX);
-                    heap.push(Item { dist: nd, v: w });
+                    heap.push(Item {
+                        dist: nd + dist(pw, target),
+                        g: nd,
+                        v: w,
+                    });
                 }
             }
             if method == GeodesicMethod::Unfolded {
@@ -248,7 +266,11 @@ impl EdgeGraph {
                     if nd < best[w as usize] {
                         best[w as usize] = nd;
                         pred[w as usize] = (v, a, b);
-                        heap.push(Item { dist: nd, v: w });
+                        heap.push(Item {
+                            dist: nd + dist(p[w as usize], target),
+                            g: nd,
+                            v: w,
+                        });
                     }
                 }
             }
