@@ -12,6 +12,7 @@
 
 pub mod ansur;
 pub mod dataset;
+pub mod predict;
 pub mod stats;
 
 pub use tapeshape_body as body;

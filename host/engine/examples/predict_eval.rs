@@ -1,0 +1,365 @@
+//! Prediction experiments of issue 4, printing markdown tables.
+//!
+//! Why an example and not a test: these take minutes on hundreds of bodies;
+//! the reduced versions run in CI (`tests/predict_sreal.rs`). A later issue
+//! builds the full evaluation suite.
+//!
+//! ```text
+//! # the paper's S_real: train on a population, predict held-out bodies from paper34
+//! cargo run --release -p tapeshape-engine --example predict_eval -- sreal \
+//!     --train /work/out/pop400s1.tsd --heldout /work/out/held60s2.tsd --n 50 \
+//!     [--model host/engine/models/default.tsm.gz]
+//! # ISO 20685-1 pass shares for quick and ansur (generated bodies and ANSUR test subjects)
+//! cargo run --release -p tapeshape-engine --example predict_eval -- iso \
+//!     --heldout /work/out/held60s2.tsd --n 50 --ansur 100 --subsets 3 [--model FILE]
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use tapeshape_engine::ansur::{Ansur, Split};
+use tapeshape_engine::dataset::Dataset;
+use tapeshape_engine::measure::Kind;
+use tapeshape_engine::mesh::Vec3;
+use tapeshape_engine::predict::{
+    train, Engine, Inputs, PredictError, PredictSettings, TrainSettings,
+};
+
+fn arg(args: &[String], name: &str) -> Option<String> {
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|i| args.get(i + 1).cloned())
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("sreal") => sreal(&args),
+        Some("iso") => iso(&args),
+        _ => Err("usage: predict_eval sreal|iso [options] (see the file's docs)".into()),
+    }
+}
+
+fn vertex_distance_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| {
+            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+        })
+        .sum::<f64>()
+        / a.len() as f64
+        * 1000.0
+}
+
+/// Per-class errors of one prediction from paper34: (euclidean, planar
+/// circumference, geodesic loops as the sum of their 4 members).
+fn paper34_errors(engine: &Engine, names: &[String], truth: &[f64], pred: &[f64]) -> [Vec<f64>; 3] {
+    let mut out: [Vec<f64>; 3] = Default::default();
+    let mut groups: BTreeMap<String, f64> = BTreeMap::new();
+    for (k, name) in names.iter().enumerate() {
+        let d = &engine.set().definitions[engine.set().index_of(name).expect("known")];
+        let e = (pred[k] - truth[k]).abs() * 1000.0;
+        match (&d.kind, &d.group) {
+            (_, Some(g)) => *groups.entry(g.clone()).or_default() += e,
+            (Kind::Circumference { .. }, None) => out[1].push(e),
+            _ => out[0].push(e),
+        }
+    }
+    out[2] = groups.into_values().collect();
+    out
+}
+
+/// Drops measurements that are constant (zero SD) on the training set, e.g.
+/// a geodesic between two landmarks that fall on the same vertex: no reading
+/// can inform them. Says which.
+fn usable(engine: &Engine, names: Vec<String>) -> Vec<String> {
+    let stats = engine.file().model.measurement_stats();
+    let (keep, drop): (Vec<String>, Vec<String>) = names
+        .into_iter()
+        .partition(|n| stats[engine.set().index_of(n).expect("member")].1 > 1e-9);
+    if !drop.is_empty() {
+        eprintln!(
+            "left out (constant on the training set): {}",
+            drop.join(", ")
+        );
+    }
+    keep
+}
+
+fn mean(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        v.iter().sum::<f64>() / v.len() as f64
+    }
+}
+
+fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let heldout = Dataset::read(&PathBuf::from(
+        arg(args, "--heldout").ok_or("--heldout FILE")?,
+    ))?;
+    let n: usize = arg(args, "--n").map_or(Ok(50), |s| s.parse())?;
+    let n = n.min(heldout.len());
+    let mut engines: Vec<(String, Engine)> = Vec::new();
+    if let Some(t) = arg(args, "--train") {
+        let data = Dataset::read(&PathBuf::from(&t))?;
+        let t0 = Instant::now();
+        let file = train(&data, &["paper34"], &TrainSettings::default())?;
+        println!(
+            "trained paper34-only model on {} bodies in {:.1} s ({} components)",
+            data.len(),
+            t0.elapsed().as_secs_f64(),
+            file.model.n_components()
+        );
+        engines.push((
+            format!("paper34 only, {} bodies, all components", data.len()),
+            Engine::new(file, &t)?,
+        ));
+    }
+    if let Some(m) = arg(args, "--model") {
+        let e = Engine::load(&PathBuf::from(&m))?;
+        engines.push((
+            format!(
+                "{} ({} components, {})",
+                m,
+                e.file().model.n_components(),
+                e.file().measurement_set.name
+            ),
+            e,
+        ));
+    }
+    println!("\nS_real: {n} held-out generated bodies, inputs = their paper34 values, settings l = 3, lambda = 0.1, s = 3\n");
+    println!("| model | method | Euclidean (14) mm | circumference, planar (4) mm | circumference, geodesic loops (4) mm | all circumferences mm | vertex distance mm | flipped / degenerate vs step-1 shape | flipped / degenerate vs true body (true body vs PCA mean) | mean time s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for (label, engine) in &engines {
+        let names = usable(engine, engine.set_members("paper34")?);
+        let idx: Vec<usize> = names
+            .iter()
+            .map(|n| engine.set().index_of(n).expect("member"))
+            .collect();
+        for (method, s) in [
+            ("feature analysis alone (start)", 0usize),
+            ("full (start + steps 1, 2)", 3),
+        ] {
+            let settings = PredictSettings {
+                s,
+                ..PredictSettings::default()
+            };
+            let (mut eu, mut ci, mut lo, mut vd, mut tt) = (vec![], vec![], vec![], vec![], vec![]);
+            let (mut flipped, mut degenerate) = (0, 0);
+            let (mut own_flipped, mut own_degenerate, mut truth_vs_mean) = (0, 0, 0);
+            let mean_shape = engine
+                .file()
+                .model
+                .shape(&vec![0.0; engine.file().model.n_components()]);
+            for i in 0..n {
+                let body = &heldout.bodies[i];
+                let truth: Vec<f64> = idx
+                    .iter()
+                    .map(|&j| engine.compiled().measure_one(j, body).map(|m| m.value))
+                    .collect::<Result<_, _>>()?;
+                let mut inputs = Inputs::new();
+                for (name, v) in names.iter().zip(&truth) {
+                    inputs.insert_metres(name, *v)?;
+                }
+                let t0 = Instant::now();
+                let est = engine.predict(&inputs, &settings)?;
+                tt.push(t0.elapsed().as_secs_f64());
+                let pred: Vec<f64> = idx
+                    .iter()
+                    .map(|&j| {
+                        engine
+                            .compiled()
+                            .measure_one(j, &est.mesh.vertices)
+                            .map(|m| m.value)
+                    })
+                    .collect::<Result<_, _>>()?;
+                let [a, b, c] = paper34_errors(engine, &names, &truth, &pred);
+                eu.extend(a);
+                ci.extend(b);
+                lo.extend(c);
+                vd.push(vertex_distance_mm(&est.mesh.vertices, body));
+                let (f, d) = tapeshape_model::predict::triangle_changes(
+                    engine.topology(),
+                    body,
+                    &est.mesh.vertices,
+                );
+                flipped += f;
+                degenerate += d;
+                let pl = &est.report.prediction.plausibility;
+                own_flipped += pl.flipped_triangles;
+                own_degenerate += pl.degenerate_triangles;
+                let (f0, _) = tapeshape_model::predict::triangle_changes(
+                    engine.topology(),
+                    body,
+                    &mean_shape,
+                );
+                truth_vs_mean += f0;
+            }
+            let all: Vec<f64> = ci.iter().chain(&lo).copied().collect();
+            println!(
+                "| {label} | {method} | {:.4} | {:.3} | {:.3} | {:.3} | {:.2} | {own_flipped} / {own_degenerate} | {flipped} / {degenerate} ({truth_vs_mean}) | {:.3} |",
+                mean(&eu),
+                mean(&ci),
+                mean(&lo),
+                mean(&all),
+                mean(&vd),
+                mean(&tt)
+            );
+        }
+    }
+    Ok(())
+}
+
+/// ISO 20685-1 pass counts per measurement: name -> (passed, total).
+type Shares = BTreeMap<String, (usize, usize)>;
+
+fn tally(
+    engine: &Engine,
+    inputs: &Inputs,
+    settings: &PredictSettings,
+    shares: &mut Shares,
+    refused: &mut Vec<String>,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let est = match engine.predict(inputs, settings) {
+        Ok(e) => e,
+        Err(e @ (PredictError::Contradiction(_) | PredictError::OutOfRange(_))) => {
+            refused.push(e.to_string());
+            for r in &inputs.readings {
+                shares.entry(r.name.clone()).or_default().1 += 1;
+            }
+            return Ok(());
+        }
+        Err(e) => return Err(e.into()),
+    };
+    for r in &inputs.readings {
+        let j = engine.set().index_of(&r.name).expect("known");
+        let tol = engine.set().definitions[j].tolerance.mm();
+        let v = engine.compiled().measure_one(j, &est.mesh.vertices)?.value;
+        let e = shares.entry(r.name.clone()).or_default();
+        e.1 += 1;
+        if ((v - r.value.metres) * 1000.0).abs() <= tol {
+            e.0 += 1;
+        }
+    }
+    Ok(())
+}
+
+fn print_shares(title: &str, engine: &Engine, shares: &Shares, refused: &[String]) {
+    println!("\n{title}\n");
+    println!("| measurement | ISO tolerance mm | passed | share |");
+    println!("|---|---|---|---|");
+    let (mut p, mut t) = (0, 0);
+    for (name, (ok, n)) in shares {
+        let j = engine.set().index_of(name).expect("known");
+        println!(
+            "| {name} | {} | {ok}/{n} | {:.1} % |",
+            engine.set().definitions[j].tolerance.mm(),
+            100.0 * *ok as f64 / *n as f64
+        );
+        p += ok;
+        t += n;
+    }
+    println!(
+        "| **all** | | {p}/{t} | {:.1} % |",
+        100.0 * p as f64 / t.max(1) as f64
+    );
+    if !refused.is_empty() {
+        println!(
+            "\n{} predictions refused by the input checks (counted as failures), e.g.: {}",
+            refused.len(),
+            refused[0]
+        );
+    }
+}
+
+fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let engine = match arg(args, "--model") {
+        Some(m) => Engine::load(&PathBuf::from(m))?,
+        None => Engine::new(
+            Engine::default_model()?.file().clone(),
+            "embedded default model",
+        )?,
+    };
+    let n: usize = arg(args, "--n").map_or(Ok(50), |s| s.parse())?;
+    let n_ansur: usize = arg(args, "--ansur").map_or(Ok(100), |s| s.parse())?;
+    let n_subsets: usize = arg(args, "--subsets").map_or(Ok(3), |s| s.parse())?;
+    let settings = PredictSettings::default();
+    let heldout = arg(args, "--heldout")
+        .map(|h| Dataset::read(&PathBuf::from(h)))
+        .transpose()?;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+    for set in ["quick", "ansur"] {
+        let names = usable(&engine, engine.set_members(set)?);
+        let idx: Vec<usize> = names
+            .iter()
+            .map(|n| engine.set().index_of(n).expect("member"))
+            .collect();
+        if let Some(h) = &heldout {
+            let (mut full, mut sub, mut rf, mut rs) =
+                (Shares::new(), Shares::new(), vec![], vec![]);
+            for body in h.bodies.iter().take(n) {
+                let truth: Vec<f64> = idx
+                    .iter()
+                    .map(|&j| engine.compiled().measure_one(j, body).map(|m| m.value))
+                    .collect::<Result<_, _>>()?;
+                let mut inputs = Inputs::new();
+                for (name, v) in names.iter().zip(&truth) {
+                    inputs.insert_metres(name, *v)?;
+                }
+                tally(&engine, &inputs, &settings, &mut full, &mut rf)?;
+                if set == "quick" {
+                    for _ in 0..n_subsets {
+                        let mut order: Vec<usize> = (0..names.len()).collect();
+                        order.shuffle(&mut rng);
+                        let k = rand::Rng::gen_range(&mut rng, 3..names.len());
+                        let mut inputs = Inputs::new();
+                        for &a in &order[..k] {
+                            inputs.insert_metres(&names[a], truth[a])?;
+                        }
+                        tally(&engine, &inputs, &settings, &mut sub, &mut rs)?;
+                    }
+                }
+            }
+            print_shares(
+                &format!(
+                    "{set}: {} held-out generated bodies, all {} measurements",
+                    n.min(h.len()),
+                    names.len()
+                ),
+                &engine,
+                &full,
+                &rf,
+            );
+            if set == "quick" {
+                print_shares(
+                    &format!("quick: random subsets (3 to 8 measurements), {n_subsets} per body"),
+                    &engine,
+                    &sub,
+                    &rs,
+                );
+            }
+        }
+        if n_ansur > 0 {
+            let ansur = Ansur::get()?;
+            let (mut sh, mut rf) = (Shares::new(), vec![]);
+            let mut used = 0;
+            for subject in ansur.subjects(None, Split::Test).take(n_ansur) {
+                let mut inputs = Inputs::new();
+                for name in &names {
+                    let d = &engine.set().definitions[engine.set().index_of(name).expect("member")];
+                    if let Some(v) = d.ansur.as_deref().and_then(|c| subject.dim(c)) {
+                        inputs.insert_metres(name, v)?;
+                    }
+                }
+                used += 1;
+                tally(&engine, &inputs, &settings, &mut sh, &mut rf)?;
+            }
+            print_shares(&format!("{set}: {used} ANSUR II test-split subjects (ids divisible by 4), their real values as input (a fit check)"), &engine, &sh, &rf);
+        }
+    }
+    Ok(())
+}

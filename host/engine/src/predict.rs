@@ -1,0 +1,813 @@
+//! Training and prediction for the station: the engine facade over
+//! `tapeshape-model` (the paper's method) and `tapeshape-measure` (the
+//! operators).
+//!
+//! Why a facade: the model crate knows measurements only as indices and
+//! metres, the station knows names, units and operators. This module holds a
+//! trained model together with its measurement set **compiled once** for the
+//! template, checks what an operator entered before the optimiser sees it
+//! (unknown names, impossible values, unit slips, contradictions), and turns
+//! the model's report into one the station can print and store.
+//!
+//! * [`train`]: measures every body of a [`Dataset`] with the union of the
+//!   named sets (deduplicated by name; the union's definitions are stored in
+//!   the model file so a station needs nothing else) and fits the model.
+//! * [`Engine::predict`]: any subset of the model's measurements, each with
+//!   an optional tolerance, gives a mesh in the template topology and an
+//!   [`EstimateReport`].
+//! * [`Engine::default_model`]: the model that ships inside the program
+//!   (`host/engine/models/default.tsm.gz`, rebuilt with
+//!   `scripts/rebuild-default-model.sh`; see `docs/prediction.md`).
+//!
+//! Input checks (each an error with a message an operator can act on, unless
+//! said otherwise):
+//!
+//! * unknown name: the closest known names are suggested;
+//! * zero, negative, NaN or infinite value or tolerance;
+//! * unit slip: a value more than [`MARGINAL_Z_ERROR`] training SDs from the
+//!   mean that becomes typical when read in another unit ("stature 1.76 cm
+//!   looks like metres"); a value that far out with no such explanation is
+//!   refused as outside the population the model knows;
+//! * contradiction: each reading's z-score under the training Gaussian
+//!   conditioned on the other readings, with every reading's own error (its
+//!   tolerance, else its ISO 20685-1 class) added as noise: above
+//!   [`CONDITIONAL_Z_ERROR`] it is refused ("waist 300 cm is 25 SD above what
+//!   hip predicts"), above [`CONDITIONAL_Z_WARN`] it is a warning;
+//! * an implausible but possible set is predicted, with a warning and its
+//!   plausibility (Mahalanobis distances) in the report.
+
+pub mod input;
+
+use std::sync::{Arc, OnceLock};
+use std::time::{Duration, Instant};
+
+use serde::{Deserialize, Serialize};
+use tapeshape_measure::{CompiledSet, MeasureError, MeasurementSet, BUILTIN_SETS};
+use tapeshape_mesh::{Anatomy, Mesh, Topology, Vec3};
+pub use tapeshape_model::predict::PredictionReport;
+pub use tapeshape_model::{
+    FitSettings, ModelError, ModelFile, PredictSettings, ShapeModel, Target,
+};
+use tapeshape_model::{MeasurementSetText, Provenance, TemplateInfo};
+
+use crate::dataset::{Dataset, DatasetError, DatasetKind};
+pub use input::{parse_length, Input, Inputs, Length, Unit};
+
+/// A reading further than this many training SDs from the training mean is
+/// refused (as a unit slip when another unit explains it).
+pub const MARGINAL_Z_ERROR: f64 = 6.0;
+/// A reading further than this many SDs from what the other readings predict
+/// is refused as a contradiction.
+pub const CONDITIONAL_Z_ERROR: f64 = 6.0;
+/// ... and above this it is a warning.
+pub const CONDITIONAL_Z_WARN: f64 = 4.0;
+/// The sets the default model carries.
+pub const DEFAULT_SETS: [&str; 3] = ["paper34", "ansur", "quick"];
+
+/// Errors of training and prediction. The message says what was wrong and
+/// what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum PredictError {
+    /// A measurement name the model does not know.
+    #[error("unknown measurement '{name}'{suggestion}")]
+    UnknownMeasurement {
+        /// The name given.
+        name: String,
+        /// ": did you mean ...?" or a pointer to the list.
+        suggestion: String,
+    },
+    /// A value that is no length (zero, negative, NaN, infinite).
+    #[error("{0}")]
+    BadValue(String),
+    /// A value that only makes sense in another unit, or far outside the population.
+    #[error("{0}")]
+    OutOfRange(String),
+    /// Readings that contradict each other.
+    #[error("the readings contradict each other: {0}")]
+    Contradiction(String),
+    /// Malformed input (syntax, duplicates, files).
+    #[error("{0}")]
+    Input(String),
+    /// Training failed or was asked for something impossible.
+    #[error("training: {0}")]
+    Training(String),
+    /// The model (file, fit or prediction) failed.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// A measurement set could not be loaded or compiled.
+    #[error(transparent)]
+    Measure(#[from] MeasureError),
+    /// A dataset problem.
+    #[error(transparent)]
+    Dataset(#[from] DatasetError),
+    /// I/O with the file it concerns.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Settings of [`train`] (default: all components, f64, no notes).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrainSettings {
+    /// The model's fit settings (PCA threshold, components).
+    pub fit: FitSettings,
+    /// Keep the fewest PCA components explaining at least this share of the
+    /// training variance (e.g. 0.999); `None`: keep all that `fit` keeps.
+    pub variance_kept: Option<f64>,
+    /// Round the PCA mean and basis to f32 precision (so that a compressed
+    /// file is about half the size; the effect on accuracy is measured in
+    /// `docs/results/predict-sreal.md`).
+    pub round_to_f32: bool,
+    /// Free-form provenance notes (dataset recipe, command).
+    pub notes: String,
+}
+
+/// The union of measurement sets, deduplicated by name (first definition
+/// kept), as TOML text that [`MeasurementSet::from_toml_str`] reads back.
+///
+/// Errors if a set is unknown or two sets define the same name differently
+/// in what they compute (the kind and its parameters).
+pub fn union_set_text(sets: &[&str]) -> Result<String, PredictError> {
+    if sets.is_empty() {
+        return Err(PredictError::Training(
+            "no measurement set named: give at least one, e.g. --set paper34".into(),
+        ));
+    }
+    let mut entries: Vec<toml::Value> = Vec::new();
+    let mut names: Vec<String> = Vec::new();
+    let mut parsed = Vec::new();
+    for &set in sets {
+        // Validate first (a clear error for an unknown or broken set).
+        let ms = MeasurementSet::load(set)?;
+        let text = match BUILTIN_SETS.iter().find(|(n, _)| *n == set) {
+            Some((_, t)) => t.to_string(),
+            None => std::fs::read_to_string(set).map_err(|source| PredictError::Io {
+                path: set.to_string(),
+                source,
+            })?,
+        };
+        let table: toml::Table =
+            toml::from_str(&text).map_err(|e| PredictError::Training(format!("set {set}: {e}")))?;
+        let list = table
+            .get("measurement")
+            .and_then(|m| m.as_array())
+            .cloned()
+            .unwrap_or_default();
+        for (entry, def) in list.into_iter().zip(&ms.definitions) {
+            if let Some(i) = names.iter().position(|n| *n == def.name) {
+                let (prev_set, prev): &(String, MeasurementSet) = &parsed[i];
+                let prev_def = &prev.definitions[prev.index_of(&def.name).expect("present")];
+                if prev_def.kind != def.kind {
+                    return Err(PredictError::Training(format!(
+                        "sets {prev_set} and {} both define '{}' but differently: train them separately or rename one",
+                        ms.name, def.name
+                    )));
+                }
+                continue;
+            }
+            names.push(def.name.clone());
+            parsed.push((ms.name.clone(), ms.clone()));
+            entries.push(entry);
+        }
+    }
+    let mut header = toml::Table::new();
+    header.insert("name".into(), toml::Value::String(sets.join("+")));
+    header.insert(
+        "description".into(),
+        toml::Value::String(format!(
+            "Union of the measurement sets {} (deduplicated by name).",
+            sets.join(", ")
+        )),
+    );
+    let mut root = toml::Table::new();
+    root.insert("set".into(), toml::Value::Table(header));
+    root.insert("measurement".into(), toml::Value::Array(entries));
+    toml::to_string(&root).map_err(|e| PredictError::Training(format!("writing the union: {e}")))
+}
+
+/// The template the engine predicts in: the body generator's topology and anatomy.
+fn body_template() -> Result<(Arc<Topology>, Anatomy), PredictError> {
+    let body = tapeshape_body::BodyModel::shared()
+        .map_err(|e| PredictError::Training(format!("loading the body template: {e}")))?;
+    Ok((body.topology().clone(), tapeshape_body::anatomy::anatomy()))
+}
+
+/// Trains a model on `dataset` (a population in the template topology) with
+/// the union of `sets` (built-in names or set files).
+///
+/// Every body is measured with the compiled union (in parallel); the model
+/// is fitted to the meshes (metres, station frame) and measurements; the
+/// file carries the template's faces and anatomy and the union's text.
+pub fn train(
+    dataset: &Dataset,
+    sets: &[&str],
+    settings: &TrainSettings,
+) -> Result<ModelFile, PredictError> {
+    if dataset.header.kind == DatasetKind::Faces {
+        return Err(PredictError::Training(
+            "a faces dataset holds head regions only; train on a population or an import of whole bodies".into(),
+        ));
+    }
+    if dataset.len() < 3 {
+        return Err(PredictError::Training(format!(
+            "the dataset has {} bodies; training needs at least 3 (the paper used hundreds)",
+            dataset.len()
+        )));
+    }
+    let (topology, anatomy) = body_template()?;
+    if dataset.topology.n_vertices() != topology.n_vertices()
+        || dataset.topology.faces() != topology.faces()
+    {
+        return Err(PredictError::Training(format!(
+            "the dataset's topology ({} vertices, {} faces) is not the template's ({} vertices, {} faces): register the meshes to the template first",
+            dataset.topology.n_vertices(),
+            dataset.topology.faces().len(),
+            topology.n_vertices(),
+            topology.faces().len()
+        )));
+    }
+    let text = union_set_text(sets)?;
+    let set = MeasurementSet::from_toml_str(&text, &sets.join("+"))?;
+    let compiled = set.compile(&topology, &anatomy)?;
+    let bodies: Vec<&[Vec3]> = dataset.bodies.iter().map(Vec::as_slice).collect();
+    let measured = compiled.measure_batch(&bodies);
+    let mut rows = Vec::with_capacity(bodies.len());
+    for (i, m) in measured.into_iter().enumerate() {
+        let m = m.map_err(|e| {
+            PredictError::Training(format!(
+                "measuring body {i} ({}): {e}",
+                dataset
+                    .header
+                    .bodies
+                    .get(i)
+                    .map_or("?", |b| b.name.as_str())
+            ))
+        })?;
+        rows.push(m.iter().map(|x| x.value).collect::<Vec<f64>>());
+    }
+    let names: Vec<String> = set.definitions.iter().map(|d| d.name.clone()).collect();
+    let mut model = ShapeModel::fit(&bodies, &rows, &names, &settings.fit)?;
+    if let Some(share) = settings.variance_kept {
+        if !(share > 0.0 && share <= 1.0) {
+            return Err(PredictError::Training(format!(
+                "variance share {share} is not in (0, 1]"
+            )));
+        }
+        let var: Vec<f64> = model.pca.sigma.iter().map(|s| s * s).collect();
+        let total: f64 = var.iter().sum();
+        let mut acc = 0.0;
+        let mut keep = var.len();
+        for (k, v) in var.iter().enumerate() {
+            acc += v;
+            if acc >= share * total {
+                keep = k + 1;
+                break;
+            }
+        }
+        if keep < model.n_components() {
+            // Refit with fewer components: the model crate fits the feature
+            // map and statistics for the components it keeps.
+            let fit = FitSettings {
+                max_components: Some(keep),
+                ..settings.fit.clone()
+            };
+            model = ShapeModel::fit(&bodies, &rows, &names, &fit)?;
+        }
+    }
+    if settings.round_to_f32 {
+        for x in model.pca.basis.iter_mut().chain(model.pca.mean.iter_mut()) {
+            *x = *x as f32 as f64;
+        }
+    }
+    let file = ModelFile {
+        provenance: Provenance {
+            dataset: format!(
+                "{} bodies ({:?}{})",
+                dataset.len(),
+                dataset.header.kind,
+                dataset
+                    .header
+                    .settings
+                    .as_ref()
+                    .map(|s| format!(", generated with seed {} and n {}", s.seed, s.n))
+                    .unwrap_or_default()
+            ),
+            trained_by: format!("tapeshape-engine {}", env!("CARGO_PKG_VERSION")),
+            created: String::new(),
+            notes: format!(
+                "sets: {}; components: {}; variance kept: {:?}; f32-rounded basis: {}; {}",
+                sets.join(", "),
+                model.n_components(),
+                settings.variance_kept,
+                settings.round_to_f32,
+                settings.notes
+            ),
+        },
+        template: TemplateInfo {
+            n_vertices: topology.n_vertices(),
+            faces: topology.faces().to_vec(),
+            anatomy,
+        },
+        measurement_set: MeasurementSetText {
+            name: sets.join("+"),
+            format: "toml".into(),
+            text,
+        },
+        model,
+    };
+    file.validate()?;
+    Ok(file)
+}
+
+/// Writes a model file gzip-compressed when `path` ends in `.gz`, plain
+/// otherwise; temporary name, then rename.
+pub fn save_model(file: &ModelFile, path: &std::path::Path) -> Result<(), PredictError> {
+    let gz = path.extension().is_some_and(|e| e == "gz");
+    if !gz {
+        return Ok(file.save(path)?);
+    }
+    let bytes = file.to_bytes()?;
+    let io = |source| PredictError::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+    std::io::Write::write_all(&mut enc, &bytes).map_err(io)?;
+    let compressed = enc.finish().map_err(io)?;
+    tapeshape_mesh::io::write_atomic(path, &compressed)
+        .map_err(|e| PredictError::Input(format!("{}: {e}", path.display())))
+}
+
+/// Reads a model file, plain or gzip-compressed (detected by its magic).
+pub fn load_model_bytes(bytes: &[u8], origin: &str) -> Result<ModelFile, PredictError> {
+    if bytes.starts_with(&[0x1f, 0x8b]) {
+        let mut out = Vec::new();
+        std::io::Read::read_to_end(&mut flate2::read::GzDecoder::new(bytes), &mut out).map_err(
+            |e| PredictError::Input(format!("{origin}: damaged compressed model file: {e}")),
+        )?;
+        Ok(ModelFile::from_bytes(&out, origin)?)
+    } else {
+        Ok(ModelFile::from_bytes(bytes, origin)?)
+    }
+}
+
+/// One reading's check against the training statistics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InputCheck {
+    /// Measurement name.
+    pub name: String,
+    /// Value, mm.
+    pub value_mm: f64,
+    /// The unit the value was read in, and whether it was typed.
+    pub unit: Unit,
+    /// False when a bare number was read in the default unit.
+    pub unit_typed: bool,
+    /// Tolerance given, mm.
+    pub tolerance_mm: Option<f64>,
+    /// Training mean and SD of the measurement, mm.
+    pub training_mean_mm: f64,
+    /// Training SD, mm.
+    pub training_sd_mm: f64,
+    /// `(value - mean) / sd` under the training marginal.
+    pub z: f64,
+    /// What the other readings predict for it (mean, mm), if any others were given.
+    pub predicted_mm: Option<f64>,
+    /// SD of that prediction with reading errors added, mm.
+    pub predicted_sd_mm: Option<f64>,
+    /// `(value - predicted) / predicted_sd`.
+    pub conditional_z: Option<f64>,
+}
+
+/// Summary of the model used.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelSummary {
+    /// Where it came from (embedded default or a path).
+    pub source: String,
+    /// Measurement sets in the model.
+    pub sets: String,
+    /// Training bodies.
+    pub n_training: usize,
+    /// PCA components.
+    pub n_components: usize,
+    /// Template vertices.
+    pub n_vertices: usize,
+}
+
+/// The report of one estimate: inputs, checks, the model's stage report, warnings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EstimateReport {
+    /// The model used.
+    pub model: ModelSummary,
+    /// Every reading with its checks.
+    pub inputs: Vec<InputCheck>,
+    /// Stage values, plausibility and timings (from `tapeshape-model`).
+    pub prediction: PredictionReport,
+    /// Time to check the inputs.
+    pub check_time: Duration,
+    /// Everything the operator should know: input notes and the model's warnings.
+    pub warnings: Vec<String>,
+}
+
+/// A predicted body.
+#[derive(Debug, Clone)]
+pub struct Estimate {
+    /// The body in the template topology (metres, station frame).
+    pub mesh: Mesh,
+    /// The report.
+    pub report: EstimateReport,
+}
+
+/// A trained model with its measurement set compiled for its template:
+/// compiled once, then [`Engine::predict`] as often as wanted.
+pub struct Engine {
+    file: ModelFile,
+    source: String,
+    set: MeasurementSet,
+    compiled: CompiledSet,
+    topology: Arc<Topology>,
+    stats: Vec<(f64, f64)>,
+}
+
+impl std::fmt::Debug for Engine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Engine")
+            .field("source", &self.source)
+            .field("set", &self.set.name)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Engine {
+    /// Builds an engine from a model file: parses and compiles its
+    /// measurement set for its template. `source` names it in reports.
+    pub fn new(file: ModelFile, source: &str) -> Result<Self, PredictError> {
+        file.validate()?;
+        let set =
+            MeasurementSet::from_toml_str(&file.measurement_set.text, &file.measurement_set.name)?;
+        let names: Vec<&str> = set.definitions.iter().map(|d| d.name.as_str()).collect();
+        if names
+            != file
+                .model
+                .measurement_names
+                .iter()
+                .map(String::as_str)
+                .collect::<Vec<_>>()
+        {
+            return Err(PredictError::Input(format!(
+                "{source}: the model's measurement names do not match its set definitions; retrain it"
+            )));
+        }
+        let topology = Arc::new(
+            Topology::new(file.template.n_vertices, file.template.faces.clone())
+                .map_err(|e| PredictError::Input(format!("{source}: template topology: {e}")))?,
+        );
+        let compiled = set.compile(&topology, &file.template.anatomy)?;
+        let stats = file.model.measurement_stats();
+        Ok(Self {
+            file,
+            source: source.to_string(),
+            set,
+            compiled,
+            topology,
+            stats,
+        })
+    }
+
+    /// Loads a model file (plain or `.gz`).
+    pub fn load(path: &std::path::Path) -> Result<Self, PredictError> {
+        let bytes = std::fs::read(path).map_err(|source| PredictError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let origin = path.display().to_string();
+        Self::new(load_model_bytes(&bytes, &origin)?, &origin)
+    }
+
+    /// The embedded default model (trained on 400 generated bodies with the
+    /// `paper34`, `ansur` and `quick` sets; see `docs/prediction.md`).
+    /// Decompressed and compiled on first use, then shared.
+    pub fn default_model() -> Result<&'static Engine, PredictError> {
+        static ENGINE: OnceLock<Result<Engine, String>> = OnceLock::new();
+        ENGINE
+            .get_or_init(|| {
+                load_model_bytes(DEFAULT_MODEL, "embedded default model")
+                    .and_then(|f| Engine::new(f, "embedded default model"))
+                    .map_err(|e| e.to_string())
+            })
+            .as_ref()
+            .map_err(|e| PredictError::Input(format!("the embedded default model is broken (rebuild it, see docs/prediction.md): {e}")))
+    }
+
+    /// The model file.
+    pub fn file(&self) -> &ModelFile {
+        &self.file
+    }
+
+    /// The union measurement set (the model's order).
+    pub fn set(&self) -> &MeasurementSet {
+        &self.set
+    }
+
+    /// The compiled set (measures meshes of the template).
+    pub fn compiled(&self) -> &CompiledSet {
+        &self.compiled
+    }
+
+    /// The template topology.
+    pub fn topology(&self) -> &Arc<Topology> {
+        &self.topology
+    }
+
+    /// The names of `set` (a built-in set) that this model carries, in the
+    /// set's order; errors if the model lacks any of them.
+    pub fn set_members(&self, set: &str) -> Result<Vec<String>, PredictError> {
+        let ms = MeasurementSet::load(set)?;
+        let mut out = Vec::new();
+        for d in &ms.definitions {
+            if self.set.index_of(&d.name).is_none() {
+                return Err(PredictError::Input(format!(
+                    "the model was not trained with set {set} (it lacks '{}'); its sets: {}",
+                    d.name, self.file.measurement_set.name
+                )));
+            }
+            out.push(d.name.clone());
+        }
+        Ok(out)
+    }
+
+    fn unknown(&self, name: &str) -> PredictError {
+        let mut scored: Vec<(f64, &str)> = self
+            .set
+            .definitions
+            .iter()
+            .map(|d| {
+                let a = strsim::normalized_damerau_levenshtein(name, &d.name);
+                let b = strsim::jaro_winkler(name, &d.name);
+                (a.max(b), d.name.as_str())
+            })
+            .collect();
+        scored.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let close: Vec<&str> = scored
+            .iter()
+            .take(3)
+            .filter(|s| s.0 > 0.6)
+            .map(|s| s.1)
+            .collect();
+        let suggestion = if close.is_empty() {
+            format!(
+                "; the model knows {} measurements (`tapeshape predict --list` shows them)",
+                self.set.len()
+            )
+        } else {
+            format!(": did you mean {}?", close.join(" or "))
+        };
+        PredictError::UnknownMeasurement {
+            name: name.to_string(),
+            suggestion,
+        }
+    }
+
+    /// Checks `inputs` against the model (names, values, units, consistency).
+    /// Returns the per-reading checks and warnings, or the first problem as an
+    /// error (see the module docs).
+    pub fn check(&self, inputs: &Inputs) -> Result<(Vec<InputCheck>, Vec<String>), PredictError> {
+        if inputs.readings.is_empty() {
+            return Err(PredictError::Input(
+                "no measurements given: give at least one, e.g. --measure stature=176.5cm".into(),
+            ));
+        }
+        let mut warnings = Vec::new();
+        let mut checks = Vec::new();
+        let mut index = Vec::new();
+        let bare: Vec<&str> = inputs
+            .readings
+            .iter()
+            .filter(|r| !r.value.unit_typed)
+            .map(|r| r.name.as_str())
+            .collect();
+        if !bare.is_empty() {
+            warnings.push(format!(
+                "no unit given for {}: read as {}",
+                bare.join(", "),
+                inputs
+                    .readings
+                    .iter()
+                    .find(|r| !r.value.unit_typed)
+                    .map_or("cm", |r| r.value.unit.word())
+            ));
+        }
+        for r in &inputs.readings {
+            let j = self
+                .set
+                .index_of(&r.name)
+                .ok_or_else(|| self.unknown(&r.name))?;
+            let v = r.value.metres;
+            let shown = format!("{} {}", r.value.number, r.value.unit.symbol());
+            if !v.is_finite() {
+                return Err(PredictError::BadValue(format!(
+                    "{} is {shown}: give a number",
+                    r.name
+                )));
+            }
+            if v <= 0.0 {
+                return Err(PredictError::BadValue(format!(
+                    "{} is {shown}: a length must be positive; leave a measurement out rather than enter 0",
+                    r.name
+                )));
+            }
+            if let Some(t) = r.tolerance {
+                if !(t.is_finite() && t > 0.0) {
+                    return Err(PredictError::BadValue(format!(
+                        "the tolerance of {} is {t} m: it must be a positive length",
+                        r.name
+                    )));
+                }
+            }
+            let (mean, sd) = self.stats[j];
+            let z = (v - mean) / sd;
+            if z.abs() > MARGINAL_Z_ERROR {
+                return Err(PredictError::OutOfRange(self.out_of_range(r, mean, sd, z)));
+            }
+            index.push(j);
+            checks.push(InputCheck {
+                name: r.name.clone(),
+                value_mm: v * 1000.0,
+                unit: r.value.unit,
+                unit_typed: r.value.unit_typed,
+                tolerance_mm: r.tolerance.map(|t| t * 1000.0),
+                training_mean_mm: mean * 1000.0,
+                training_sd_mm: sd * 1000.0,
+                z,
+                predicted_mm: None,
+                predicted_sd_mm: None,
+                conditional_z: None,
+            });
+        }
+        // Each reading against what the others predict. Each reading's own
+        // error (its tolerance, else its ISO 20685-1 class) enters as noise,
+        // so near-deterministic relations in a generated population do not
+        // turn a normal tape error into a "contradiction".
+        let noise: Vec<f64> = inputs
+            .readings
+            .iter()
+            .zip(&index)
+            .map(|(r, &j)| {
+                r.tolerance
+                    .unwrap_or(self.set.definitions[j].tolerance.mm() / 1000.0)
+            })
+            .collect();
+        let mut bad = Vec::new();
+        if index.len() >= 2 {
+            for a in 0..index.len() {
+                let observed: Vec<(usize, f64, f64)> = (0..index.len())
+                    .filter(|&b| b != a)
+                    .map(|b| (index[b], inputs.readings[b].value.metres, noise[b].powi(2)))
+                    .collect();
+                let cond = self.file.model.joint.conditional(&[index[a]], &observed)?;
+                let mu = cond.mean[0];
+                let sd = (cond.cov[(0, 0)].max(0.0) + noise[a].powi(2)).sqrt();
+                let zc = (inputs.readings[a].value.metres - mu) / sd;
+                let c = &mut checks[a];
+                c.predicted_mm = Some(mu * 1000.0);
+                c.predicted_sd_mm = Some(sd * 1000.0);
+                c.conditional_z = Some(zc);
+                let others: Vec<&str> = inputs
+                    .readings
+                    .iter()
+                    .enumerate()
+                    .filter(|&(b, _)| b != a)
+                    .map(|(_, r)| r.name.as_str())
+                    .take(4)
+                    .collect();
+                let others = if inputs.readings.len() - 1 > others.len() {
+                    format!(
+                        "{} and {} more",
+                        others.join(", "),
+                        inputs.readings.len() - 1 - others.len()
+                    )
+                } else {
+                    others.join(", ")
+                };
+                let msg = format!(
+                    "{} {:.1} cm is {:.0} SD {} what {others} predict{} ({:.1} +/- {:.1} cm)",
+                    c.name,
+                    c.value_mm / 10.0,
+                    zc.abs(),
+                    if zc > 0.0 { "above" } else { "below" },
+                    if inputs.readings.len() == 2 { "s" } else { "" },
+                    mu * 100.0,
+                    sd * 100.0
+                );
+                if zc.abs() > CONDITIONAL_Z_ERROR {
+                    bad.push((zc.abs(), msg));
+                } else if zc.abs() > CONDITIONAL_Z_WARN {
+                    warnings.push(format!("{msg}: check this reading"));
+                }
+            }
+        }
+        if !bad.is_empty() {
+            bad.sort_by(|a, b| b.0.total_cmp(&a.0));
+            let list: Vec<String> = bad.into_iter().map(|b| b.1).collect();
+            return Err(PredictError::Contradiction(format!(
+                "{}; re-take these readings",
+                list.join("; ")
+            )));
+        }
+        Ok((checks, warnings))
+    }
+
+    fn out_of_range(&self, r: &Input, mean: f64, sd: f64, z: f64) -> String {
+        let v = r.value.metres;
+        let typed = format!("{} {}", r.value.number, r.value.unit.symbol());
+        // Another unit that makes the typed number typical?
+        let best = Unit::ALL
+            .iter()
+            .filter(|&&u| u != r.value.unit)
+            .map(|&u| (u, (r.value.number * u.metres() - mean) / sd))
+            .filter(|(_, z)| z.abs() < 4.0)
+            .min_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+        let typical = format!("{:.1} cm +/- {:.1}", mean * 100.0, sd * 100.0);
+        match best {
+            Some((u, _)) => format!(
+                "{} {typed} looks like {}: write {}{} (typical: {typical}){}",
+                r.name,
+                u.word(),
+                r.value.number,
+                u.symbol(),
+                if r.value.unit_typed {
+                    String::new()
+                } else {
+                    format!("; a number without a unit is read as {}", r.value.unit.word())
+                }
+            ),
+            None => format!(
+                "{} {typed} ({:.1} cm) is {:.0} SD {} the population the model knows (typical: {typical}): check the reading and its unit",
+                r.name,
+                v * 100.0,
+                z.abs(),
+                if z > 0.0 { "above" } else { "below" }
+            ),
+        }
+    }
+
+    /// Estimates a body from `inputs` with `settings` (the paper's l, lambda,
+    /// s). Inputs are checked first ([`Engine::check`]); the mesh is in the
+    /// template topology, metres, station frame.
+    pub fn predict(
+        &self,
+        inputs: &Inputs,
+        settings: &PredictSettings,
+    ) -> Result<Estimate, PredictError> {
+        let t0 = Instant::now();
+        let (checks, mut warnings) = self.check(inputs)?;
+        let check_time = t0.elapsed();
+        let mut targets: Vec<Option<Target>> = vec![None; self.set.len()];
+        for r in &inputs.readings {
+            let j = self.set.index_of(&r.name).expect("checked");
+            targets[j] = Some(Target {
+                value: r.value.metres,
+                tolerance: r.tolerance,
+            });
+        }
+        let p = self
+            .file
+            .model
+            .predict(&targets, &self.compiled, &self.topology, settings)?;
+        let pl = &p.report.plausibility;
+        if pl.measurements_label == tapeshape_model::PlausibilityLabel::Unusual {
+            warnings.push(format!(
+                "unusual set of measurements (Mahalanobis distance {:.1} over {} readings, {:.1}% of the population is closer to the mean): the result is plausible but check the readings",
+                pl.measurements_mahalanobis,
+                inputs.readings.len(),
+                100.0 * pl.measurements_quantile
+            ));
+        }
+        warnings.extend(p.report.warnings.iter().cloned());
+        let mesh = Mesh::new(p.vertices, self.topology.clone())
+            .map_err(|e| PredictError::Input(format!("building the result mesh: {e}")))?;
+        Ok(Estimate {
+            mesh,
+            report: EstimateReport {
+                model: ModelSummary {
+                    source: self.source.clone(),
+                    sets: self.file.measurement_set.name.clone(),
+                    n_training: self.file.model.n_training,
+                    n_components: self.file.model.n_components(),
+                    n_vertices: self.file.model.n_vertices(),
+                },
+                inputs: checks,
+                prediction: p.report,
+                check_time,
+                warnings,
+            },
+        })
+    }
+}
+
+/// The embedded default model (gzip of a model file).
+static DEFAULT_MODEL: &[u8] = include_bytes!("../models/default.tsm.gz");

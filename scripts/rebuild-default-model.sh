@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Rebuilds the default body model embedded in the program
+# (host/engine/models/default.tsm.gz): 400 generated bodies (seed 1) fitted to
+# ANSUR II train-split subjects, measured with paper34, ansur and quick; the
+# first 100 PCA components, basis rounded to f32, gzip-compressed (~18 MB).
+# Deterministic: the same seed and code give the same population and model.
+# Takes about 2 minutes on 2 cores (release build, generation ~50 s, training ~10 s).
+# See docs/prediction.md.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+work="${TAPESHAPE_WORK:-$(mktemp -d)}"
+model=host/engine/models/default.tsm.gz
+# The engine embeds the model file at build time: a missing file (first build)
+# is created empty so the program can be built to train the real one.
+[ -f "$model" ] || : > "$model"
+cargo build --release -p tapeshape
+./target/release/tapeshape dataset generate --n 400 --seed 1 --out "$work/pop400s1.tsd"
+./target/release/tapeshape train --dataset "$work/pop400s1.tsd" \
+    --set paper34 --set ansur --set quick --max-components 100 --f32 -o "$model"
+echo "rebuilt $model; rebuild the program (cargo build) to embed it"
