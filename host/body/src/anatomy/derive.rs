@@ -956,34 +956,59 @@ fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
     ));
     let (zlo, zhi) = (c.joint("spine05", false)?[2], c.joint("spine03", false)?[2]);
     let omphalion = {
-        let band: Vec<u32> = front
-            .iter()
-            .copied()
-            .filter(|&k| z(k) > zlo && z(k) < zhi)
-            .collect();
-        let depth = |k: u32| {
-            let above = front
-                .iter()
-                .filter(|&&j| z(j) > z(k) && z(j) < z(k) + 0.03)
-                .map(|&j| y(j))
-                .fold(f64::NEG_INFINITY, f64::max);
-            let below = front
-                .iter()
-                .filter(|&&j| z(j) < z(k) && z(j) > z(k) - 0.03)
-                .map(|&j| y(j))
-                .fold(f64::NEG_INFINITY, f64::max);
-            above.min(below) - y(k)
+        // Concavity of a vertex: how far the centroid of its one-ring lies
+        // outside it along its (area-weighted) normal; > 0 in a dent.
+        let mut ring: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+        for &[a, b] in &c.edges {
+            ring.entry(a).or_default().push(b);
+            ring.entry(b).or_default().push(a);
+        }
+        let normal = |k: u32| {
+            let mut n = [0.0; 3];
+            for t in c.pack.triangles.iter().filter(|t| t.contains(&k)) {
+                let [a, b, cc] = t.map(p);
+                let (u, w) = (sub(b, a), sub(cc, a));
+                n = add(
+                    n,
+                    [
+                        u[1] * w[2] - u[2] * w[1],
+                        u[2] * w[0] - u[0] * w[2],
+                        u[0] * w[1] - u[1] * w[0],
+                    ],
+                );
+            }
+            unit(n)
         };
-        band.iter()
-            .copied()
-            .max_by(|&a, &b| depth(a).total_cmp(&depth(b)).then(b.cmp(&a)))
-            .ok_or_else(|| {
-                AnatomyError::Rule("no front profile between the pelvis and spine03 joints".into())
-            })?
+        let pelvis_y = c.joint("spine05", false)?[1];
+        let cands: Vec<(u32, f64)> = body()
+            .filter(|&k| {
+                c.is_part(k, &[TORSO])
+                    && x(k).abs() < 0.03
+                    && y(k) > pelvis_y
+                    && z(k) > zlo
+                    && z(k) < zhi + 0.03
+            })
+            .map(|k| {
+                let r = &ring[&k];
+                let cen = scale(
+                    r.iter().fold([0.0; 3], |s, &j| add(s, p(j))),
+                    1.0 / r.len() as f64,
+                );
+                (k, dot(sub(cen, p(k)), normal(k)))
+            })
+            .collect();
+        let top = cands.iter().map(|c| c.1).fold(0.0, f64::max);
+        if top <= 0.0 {
+            return Err(AnatomyError::Rule("no concave vertex for the navel".into()));
+        }
+        let navel: Vec<&(u32, f64)> = cands.iter().filter(|c| c.1 > 0.5 * top).collect();
+        let wsum: f64 = navel.iter().map(|c| c.1).sum();
+        let zc = navel.iter().map(|c| c.1 * z(c.0)).sum::<f64>() / wsum;
+        nearest_z(&front, zc, "omphalion")?
     };
     mids.push((
         "omphalion",
-        "the navel: on the torso's front mid-plane silhouette between the heights of the pelvis joint (spine05 head) and the spine03 head joint, the deepest dent (min over the two sides of the max silhouette y within 30 mm above / below, minus own y)".into(),
+        "the navel: concavity of a vertex = distance of its one-ring centroid outside it along its normal; among torso vertices within 30 mm of the mid-plane, in front of the pelvis joint, between the heights of the pelvis joint (spine05 head) and 30 mm above the spine03 head joint, those with more than half the largest concavity form the navel; the front mid-plane silhouette vertex nearest the height of their concavity-weighted centroid".into(),
         omphalion,
     ));
     let waist_back = nearest_z(&back, z(omphalion), "waist_back")?;
