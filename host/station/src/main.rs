@@ -34,6 +34,10 @@ enum Command {
     Measure(cli::measure::Args),
     /// Make, import and inspect databases of registered bodies (training data).
     Dataset(cli::dataset::Args),
+    /// Learn a shape model from a dataset of bodies (for `predict --model`).
+    Train(cli::train::Args),
+    /// Estimate a body mesh from tape measurements (any subset of the model's); --help for units and files.
+    Predict(cli::predict::Args),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +50,8 @@ fn main() -> ExitCode {
         Command::Demo(a) => cli::demo::run(a, &args.global),
         Command::Measure(a) => cli::measure::run(a, &args.global),
         Command::Dataset(a) => cli::dataset::run(a, &args.global),
+        Command::Train(a) => cli::train::run(a, &args.global),
+        Command::Predict(a) => cli::predict::run(a, &args.global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,11 +15,13 @@ use anyhow::Context as _;
 use crate::store::{resolve_data_dir, Store};
 
 pub mod dataset;
-pub mod measure;
 pub mod demo;
+pub mod measure;
+pub mod predict;
 pub mod session;
 pub mod sessions;
 pub mod station;
+pub mod train;
 
 /// Options every subcommand takes.
 #[derive(clap::Args, Clone, Debug, Default)]

@@ -1,0 +1,243 @@
+//! `tapeshape predict --measure stature=176.5cm --measure chest=98cm ... -o body.glb`:
+//! estimates a customer's body from tape readings with the paper's method
+//! and prints, per measurement, the target, the value after the start, after
+//! step 1 and after step 2, and the error; then the plausibility and times.
+//!
+//! Why here and not in the engine: parsing the command line, reading the
+//! readings file and writing files; the checks and the method live in
+//! `tapeshape_engine::predict`, shared with the TUI and the tests.
+//!
+//! Units: every value takes its unit (`176.5cm`, `1765mm`, `1.765m`,
+//! `69.5in`); a bare number is read as centimetres (what a tape shows) and
+//! the report says so. Output files go to a temporary name, then renamed.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context as _};
+use tapeshape_engine::predict::{Engine, EstimateReport, Inputs, PredictSettings};
+use tapeshape_mesh::io::PlyPrecision;
+
+use super::Global;
+
+/// Arguments of `tapeshape predict`.
+#[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Values take a unit: 176.5cm, 1765mm, 1.765m, 69.5in. A number without a unit is read as cm.\n\
+Examples:\n  tapeshape predict --measure stature=176.5cm --measure chest=98cm --measure waist=84cm -o body.glb\n  \
+tapeshape predict --measurements customer.toml --report report.json -o body.obj\n  tapeshape predict --list"
+)]
+pub struct Args {
+    /// Model file from `tapeshape train` [default: the embedded model, trained
+    /// on 400 generated bodies with the paper34, ansur and quick sets].
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
+
+    /// A reading, NAME=VALUE with a unit (e.g. stature=176.5cm); repeat for each.
+    #[arg(long = "measure", value_name = "NAME=VALUE")]
+    pub measures: Vec<String>,
+
+    /// Readings from a file: TOML or JSON (`name = "98cm"`, optional
+    /// `unit = "cm"` for bare numbers, `name = { value = .., tolerance = .. }`)
+    /// or a CSV with a header row and one value row (optional `unit` column).
+    #[arg(long, value_name = "FILE")]
+    pub measurements: Option<PathBuf>,
+
+    /// Uncertainty of a reading, NAME=LENGTH (bare numbers are mm), e.g.
+    /// chest=10mm for a novice's tape: that reading then counts for less.
+    #[arg(long = "tolerance", value_name = "NAME=MM")]
+    pub tolerances: Vec<String>,
+
+    /// Write the body mesh (format by extension: .obj, .ply or .glb).
+    #[arg(short, long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+
+    /// Write the full report as JSON.
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
+
+    /// Clamp of the normalised PCA weights, in SDs (paper: 3 synthetic, 10 real).
+    #[arg(long, default_value_t = 3.0)]
+    pub l: f64,
+
+    /// Weight of the smoothness energy in step 2, in [0, 1] (paper: 0.1).
+    #[arg(long, default_value_t = 0.1)]
+    pub lambda: f64,
+
+    /// Rounds of support recomputation per step (paper: 3; 0 = the start only).
+    #[arg(long, default_value_t = 3)]
+    pub s: usize,
+
+    /// List the model's measurements (name, sets, label) and exit.
+    #[arg(long)]
+    pub list: bool,
+}
+
+fn load_engine(model: Option<&Path>) -> anyhow::Result<EngineRef> {
+    Ok(match model {
+        Some(p) => EngineRef::Owned(Box::new(
+            Engine::load(p).with_context(|| format!("loading the model {}", p.display()))?,
+        )),
+        None => EngineRef::Default(Engine::default_model()?),
+    })
+}
+
+enum EngineRef {
+    Owned(Box<Engine>),
+    Default(&'static Engine),
+}
+
+impl std::ops::Deref for EngineRef {
+    type Target = Engine;
+    fn deref(&self) -> &Engine {
+        match self {
+            EngineRef::Owned(e) => e,
+            EngineRef::Default(e) => e,
+        }
+    }
+}
+
+/// Runs `tapeshape predict`.
+pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
+    let engine = load_engine(args.model.as_deref())?;
+    if args.list {
+        print_list(&engine);
+        return Ok(());
+    }
+    if let Some(out) = &args.out {
+        mesh_format(out)?;
+    }
+    let mut inputs = match &args.measurements {
+        Some(p) => Inputs::from_file(p)?,
+        None => Inputs::new(),
+    };
+    for m in &args.measures {
+        inputs.add_assignment(m)?;
+    }
+    for t in &args.tolerances {
+        inputs.set_tolerance(t)?;
+    }
+    if inputs.readings.is_empty() {
+        bail!("no measurements given: use --measure NAME=VALUE (e.g. stature=176.5cm) or --measurements FILE; `tapeshape predict --list` shows the names");
+    }
+    let settings = PredictSettings {
+        l: args.l,
+        lambda: args.lambda,
+        s: args.s,
+        ..PredictSettings::default()
+    };
+    let estimate = engine.predict(&inputs, &settings)?;
+    print_report(&estimate.report);
+    if let Some(path) = &args.report {
+        let json = serde_json::to_vec_pretty(&estimate.report).context("encoding the report")?;
+        tapeshape_mesh::io::write_atomic(path, &json)
+            .with_context(|| format!("writing the report {}", path.display()))?;
+        println!("report: {}", path.display());
+    }
+    if let Some(path) = &args.out {
+        write_mesh(&estimate.mesh, path)?;
+        println!("body: {}", path.display());
+    }
+    Ok(())
+}
+
+#[derive(Clone, Copy)]
+enum MeshFormat {
+    Obj,
+    Ply,
+    Glb,
+}
+
+fn mesh_format(path: &Path) -> anyhow::Result<MeshFormat> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    Ok(match ext.as_str() {
+        "obj" => MeshFormat::Obj,
+        "ply" => MeshFormat::Ply,
+        "glb" => MeshFormat::Glb,
+        _ => bail!(
+            "{}: unknown mesh format '{ext}': name the output .obj, .ply or .glb",
+            path.display()
+        ),
+    })
+}
+
+fn write_mesh(mesh: &tapeshape_mesh::Mesh, path: &Path) -> anyhow::Result<()> {
+    let r = match mesh_format(path)? {
+        MeshFormat::Obj => tapeshape_mesh::io::write_obj(mesh, path),
+        MeshFormat::Ply => tapeshape_mesh::io::write_ply(mesh, path, PlyPrecision::F64),
+        MeshFormat::Glb => tapeshape_mesh::io::write_glb(mesh, path),
+    };
+    r.with_context(|| format!("writing the body {}", path.display()))
+}
+
+fn print_list(engine: &Engine) {
+    let sets: Vec<(&str, Vec<String>)> = ["quick", "ansur", "paper34"]
+        .iter()
+        .filter_map(|s| engine.set_members(s).ok().map(|m| (*s, m)))
+        .collect();
+    println!(
+        "{} measurements ({}); sets: {}",
+        engine.set().len(),
+        engine.file().measurement_set.name,
+        sets.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
+    );
+    for d in &engine.set().definitions {
+        let member: Vec<&str> = sets
+            .iter()
+            .filter(|s| s.1.contains(&d.name))
+            .map(|s| s.0)
+            .collect();
+        println!("  {:<32} {:<18} {}", d.name, member.join(","), d.label);
+    }
+}
+
+fn fmt_mm(x: Option<f64>) -> String {
+    x.map_or_else(|| "-".into(), |v| format!("{:.1}", v))
+}
+
+fn print_report(r: &EstimateReport) {
+    let p = &r.prediction;
+    println!(
+        "{:<28} {:>9} {:>9} {:>9} {:>9} {:>8}",
+        "measurement (mm)", "target", "start", "step 1", "step 2", "error"
+    );
+    for m in p.measurements.iter().filter(|m| m.target_mm.is_some()) {
+        println!(
+            "{:<28} {:>9} {:>9} {:>9} {:>9} {:>8}",
+            m.name,
+            fmt_mm(m.target_mm),
+            fmt_mm(m.start_mm),
+            fmt_mm(m.step1_mm),
+            fmt_mm(m.step2_mm),
+            m.error_mm.map_or("-".into(), |e| format!("{e:.2}"))
+        );
+    }
+    let pl = &p.plausibility;
+    println!(
+        "plausibility: result {:?} (Mahalanobis {:.2} over {} components), readings {:?} (Mahalanobis {:.2}); step 2 left the PCA space by {:.2} mm RMS ({:.2} max); flipped triangles {}, degenerate {}",
+        pl.label,
+        pl.mahalanobis,
+        p.weights_step1.len(),
+        pl.measurements_label,
+        pl.measurements_mahalanobis,
+        pl.out_of_space_rms_mm,
+        pl.out_of_space_max_mm,
+        pl.flipped_triangles,
+        pl.degenerate_triangles
+    );
+    let t = &p.timings;
+    println!(
+        "time: checks {:.1} ms, start {:.1} ms, step 1 {:.1} ms, step 2 {:.1} ms, total {:.1} ms",
+        r.check_time.as_secs_f64() * 1e3,
+        t.start.as_secs_f64() * 1e3,
+        t.step1.as_secs_f64() * 1e3,
+        t.step2.as_secs_f64() * 1e3,
+        t.total.as_secs_f64() * 1e3
+    );
+    for w in &r.warnings {
+        println!("warning: {w}");
+    }
+}
