@@ -271,3 +271,21 @@ async fn ctrl_c_stops_cleanly_and_resume_continues_the_set() {
         .collect();
     assert_eq!(got, want);
 }
+
+#[test]
+fn a_regular_file_is_not_taken_for_a_port() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    let file = tmp.path().join("notes.txt");
+    std::fs::write(&file, b"x").unwrap();
+    let out = tapeshape(&data, &["station", "--customer", "c", "--port"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("not a serial port") && err.contains("notes.txt"),
+        "{err}"
+    );
+}

@@ -72,6 +72,7 @@ pub struct Args {
 /// Runs the station until Ctrl-C (or completion with
 /// `--exit-when-complete`).
 pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
+    check_port(&args.port)?;
     let store = global.open_store()?;
     let session = choose_session(&store, &args)?;
     let plan = plan(&store, &session, &args.measurements)?;
@@ -153,6 +154,22 @@ pub fn plan(
             .filter(|p| !have.contains(&p.name))
             .collect(),
     ))
+}
+
+/// A port that exists must be a character device; one that does not exist
+/// yet is fine (the link waits for it: a tape plugged in later).
+fn check_port(port: &std::path::Path) -> anyhow::Result<()> {
+    use std::os::unix::fs::FileTypeExt;
+    if let Ok(meta) = std::fs::metadata(port) {
+        if !meta.file_type().is_char_device() {
+            bail!(
+                "{} is not a serial port (not a character device); give the tape's port, \
+                 e.g. /dev/ttyACM0 or /dev/ttyUSB0",
+                port.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 fn choose_session(store: &Store, args: &Args) -> anyhow::Result<Session> {
