@@ -407,3 +407,36 @@ fn derivation_body_equals_the_generator_output() {
         "derivation body differs from the generator by {worst} m"
     );
 }
+
+#[test]
+fn sided_parts_are_mirror_images() {
+    // Mirror every triangle of a right part through hm08.mirror; the result
+    // must be a triangle (as a vertex set) of the matching left part.
+    let a = anatomy::anatomy();
+    let p = pack();
+    let mut kept_of = vec![u32::MAX; p.base.len()];
+    for (k, &b) in p.keep.iter().enumerate() {
+        kept_of[b as usize] = k as u32;
+    }
+    let key = |t: [u32; 3]| {
+        let mut t = t;
+        t.sort_unstable();
+        t
+    };
+    for stem in ["upper_arm", "forearm", "hand", "thigh", "lower_leg", "foot"] {
+        let left: BTreeSet<[u32; 3]> = a.parts[&format!("{stem}_left")]
+            .iter()
+            .map(|&t| key(p.triangles[t as usize]))
+            .collect();
+        let right = &a.parts[&format!("{stem}_right")];
+        assert_eq!(left.len(), right.len(), "{stem}");
+        for &t in right {
+            let m = p.triangles[t as usize]
+                .map(|k| kept_of[p.mirror[p.keep[k as usize] as usize].0 as usize]);
+            assert!(
+                left.contains(&key(m)),
+                "{stem}: mirror of triangle {t} not in the left part"
+            );
+        }
+    }
+}
