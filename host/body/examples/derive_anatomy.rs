@@ -170,7 +170,11 @@ fn main() -> anyhow::Result<()> {
                 [c[0] - r, c[1] - r, c[2] - r],
                 [c[0] + r, c[1] + r, c[2] + r],
             ));
-            let panels: Vec<Panel> = [View::Front, View::Right, View::Back]
+            let medial_front = View::Custom {
+                toward_camera: [-0.5, 0.866, 0.0],
+                up: [0.0, 0.0, 1.0],
+            };
+            let panels: Vec<Panel> = [View::Front, View::Right, View::Back, medial_front]
                 .into_iter()
                 .map(|view| Panel {
                     view,
