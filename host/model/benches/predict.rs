@@ -155,6 +155,7 @@ fn main() {
     let mut v2v = [0.0f64; 2];
     let (mut flipped, mut degenerate, mut warned) = (0, 0, 0);
     let mut times = Vec::new();
+    let mut warning_kinds = std::collections::BTreeMap::new();
     for (body, m) in test_bodies.iter().zip(&test_meas) {
         let targets = targets_of(m);
         for (i, st) in [&settings, &fa_settings].into_iter().enumerate() {
@@ -165,6 +166,10 @@ fn main() {
                 flipped += p.report.plausibility.flipped_triangles;
                 degenerate += p.report.plausibility.degenerate_triangles;
                 warned += usize::from(!p.report.warnings.is_empty());
+                for w in &p.report.warnings {
+                    let key: String = w.chars().take(70).collect();
+                    *warning_kinds.entry(key).or_insert(0usize) += 1;
+                }
             }
             v2v[i] += v2v_mm(&p.vertices, body) / test_bodies.len() as f64;
             for (r, kind) in p.report.measurements.iter().zip(&kinds) {
@@ -201,4 +206,7 @@ fn main() {
         "method: flipped triangles {flipped}, degenerate {degenerate}, predictions with warnings {warned}/{n_test}; CPU time per prediction {}",
         fmt(&times)
     );
+    for (w, n) in &warning_kinds {
+        println!("  warning x{n}: {w}...");
+    }
 }

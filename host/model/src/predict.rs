@@ -202,7 +202,8 @@ pub struct Plausibility {
     /// Label of `quantile`.
     pub label: PlausibilityLabel,
     /// Mahalanobis distance of the given measurements under their training
-    /// marginal Gaussian.
+    /// marginal Gaussian, each reading's tolerance (or the reference
+    /// tolerance) added as observation noise.
     pub measurements_mahalanobis: f64,
     /// Its chi-square quantile (degrees of freedom = number given).
     pub measurements_quantile: f64,
@@ -505,18 +506,24 @@ impl ShapeModel {
             }
             base.extend((0..3).map(|c| self.pca.mean[3 * g + c] * MM_PER_M));
         }
-        WeightObjective {
-            k,
-            rows,
-            base,
-            terms: local_terms,
-        }
+        WeightObjective::new(k, &rows, &base, local_terms)
     }
 
-    fn measurement_mahalanobis(&self, given: &[Given]) -> Result<f64> {
+    /// Mahalanobis distance of the given readings under the training
+    /// Gaussian of the measurements, with each reading's own uncertainty
+    /// (its tolerance, else the reference tolerance) added as noise: a tape
+    /// reading is never more exact than that, and without it nearly collinear
+    /// measurements (left/right pairs) make every small asymmetry look
+    /// implausible.
+    fn measurement_mahalanobis(&self, given: &[Given], settings: &PredictSettings) -> Result<f64> {
         let idx: Vec<usize> = given.iter().map(|g| g.index).collect();
         let val: Vec<f64> = given.iter().map(|g| g.target_mm / MM_PER_M).collect();
-        self.joint.mahalanobis(&idx, &val)
+        // weight = (reference / tolerance)^2, so tolerance^2 = reference^2 / weight.
+        let noise: Vec<f64> = given
+            .iter()
+            .map(|g| settings.reference_tolerance.powi(2) / g.weight)
+            .collect();
+        self.joint.mahalanobis(&idx, &val, &noise)
     }
 
     /// Estimates a body from `targets` (one entry per model measurement, `None`
@@ -713,7 +720,7 @@ impl ShapeModel {
         let k = self.n_components();
         let mahalanobis = w_step1.iter().map(|x| x * x).sum::<f64>().sqrt();
         let quantile = chi2_quantile(mahalanobis * mahalanobis, k);
-        let meas_maha = self.measurement_mahalanobis(&given)?;
+        let meas_maha = self.measurement_mahalanobis(&given, settings)?;
         let meas_q = chi2_quantile(meas_maha * meas_maha, given.len());
         let meas_label =
             PlausibilityLabel::from_quantile(if meas_q.is_finite() { meas_q } else { 1.0 });

@@ -490,41 +490,91 @@ fn minimise_argmin(
 
 /// Step 1: `E_m` as a function of the normalised weights `w` (length K).
 ///
-/// Only the vertices the supports touch are evaluated: `x_local = base + R w`
-/// where `R` holds their rows of `1000 * A diag(sigma)` (mm per unit weight)
-/// and `base` their mean position (mm). The gradient is `R^T dE/dx_local`, the
-/// chain rule through the PCA basis. Cost per evaluation: O(3 n_local K).
+/// Every segment vector is linear in the weights, `d_e(w) = c_e + C_e w`,
+/// where `C_e` (3 x K, mm per unit weight) combines the rows of
+/// `1000 * A diag(sigma)` of the (up to four) vertices of the segment's end
+/// points with their interpolation weights, and `c_e` the same combination of
+/// the mean shape. These are built once per round, so an evaluation costs
+/// O(3 K) per segment and never touches the rest of the mesh; the gradient is
+/// `sum_e C_e^T dE/dd_e`, the chain rule through the PCA basis.
 pub struct WeightObjective {
-    /// Number of weights K.
-    pub k: usize,
-    /// Rows of the scaled basis for the local vertices, (3 n_local) x K, row-major, mm.
-    pub rows: Vec<f64>,
-    /// Mean positions of the local vertices, flat (3 n_local), mm.
-    pub base: Vec<f64>,
-    /// Measurement terms over local vertex indices (mm).
-    pub terms: Vec<SegmentTerm>,
+    k: usize,
+    /// Per segment, 3 rows of K entries (`C_e`, row-major).
+    rows: Vec<f64>,
+    /// Per segment, `c_e` (3 entries).
+    base: Vec<f64>,
+    /// The terms (targets, weights and axes; their points are not used after construction).
+    terms: Vec<SegmentTerm>,
 }
 
 impl WeightObjective {
-    /// Local positions (flat, mm) for weights `w`.
-    pub fn positions(&self, w: &[f64]) -> Vec<f64> {
-        self.base
-            .iter()
-            .zip(self.rows.chunks_exact(self.k.max(1)))
-            .map(|(b, row)| b + dot(row, w))
-            .collect()
+    /// Builds the objective from the rows of the scaled basis of the vertices
+    /// the terms use: `vertex_rows` is (3 n_local) x K row-major (mm per unit
+    /// weight), `vertex_base` their mean positions (flat, 3 n_local, mm), and
+    /// the terms' points index these local vertices.
+    pub fn new(
+        k: usize,
+        vertex_rows: &[f64],
+        vertex_base: &[f64],
+        terms: Vec<SegmentTerm>,
+    ) -> Self {
+        let mut rows = vec![0.0; terms.len() * 3 * k];
+        let mut base = vec![0.0; terms.len() * 3];
+        for (e, t) in terms.iter().enumerate() {
+            let parts = [
+                (t.p1.a, 1.0 - t.p1.t),
+                (t.p1.b, t.p1.t),
+                (t.p0.a, -(1.0 - t.p0.t)),
+                (t.p0.b, -t.p0.t),
+            ];
+            for (v, coef) in parts {
+                if coef == 0.0 {
+                    continue;
+                }
+                let v = v as usize;
+                for c in 0..3 {
+                    base[3 * e + c] += coef * vertex_base[3 * v + c];
+                    let src = &vertex_rows[(3 * v + c) * k..(3 * v + c + 1) * k];
+                    axpy(coef, src, &mut rows[(3 * e + c) * k..(3 * e + c + 1) * k]);
+                }
+            }
+        }
+        Self {
+            k,
+            rows,
+            base,
+            terms,
+        }
     }
 }
 
 impl Objective for WeightObjective {
     fn eval(&self, w: &[f64], grad: &mut [f64]) -> f64 {
-        let p = self.positions(w);
-        let mut gp = vec![0.0; p.len()];
-        let e = measurement_energy(&self.terms, &p, Some(&mut gp));
+        let k = self.k;
         grad.iter_mut().for_each(|g| *g = 0.0);
-        for (row, &gc) in self.rows.chunks_exact(self.k.max(1)).zip(&gp) {
-            if gc != 0.0 {
-                axpy(gc, row, grad);
+        let mut e = 0.0;
+        for (i, t) in self.terms.iter().enumerate() {
+            let r3 = &self.rows[3 * i * k..3 * (i + 1) * k];
+            let d = [
+                self.base[3 * i] + dot(&r3[..k], w),
+                self.base[3 * i + 1] + dot(&r3[k..2 * k], w),
+                self.base[3 * i + 2] + dot(&r3[2 * k..], w),
+            ];
+            let (len2, half) = match t.axis {
+                Some(n) => {
+                    let nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+                    (nd * nd, [nd * n[0], nd * n[1], nd * n[2]])
+                }
+                None => (d[0] * d[0] + d[1] * d[1] + d[2] * d[2], d),
+            };
+            let r = len2 - t.target_sq;
+            e += t.weight * r * r;
+            let s = 4.0 * t.weight * r;
+            for c in 0..3 {
+                let gc = s * half[c];
+                if gc != 0.0 {
+                    axpy(gc, &r3[c * k..(c + 1) * k], grad);
+                }
             }
         }
         e

@@ -213,10 +213,13 @@ impl JointGaussian {
     }
 
     /// Mahalanobis distance of `values` at z-indices `indices` under their
-    /// marginal Gaussian (same ridge rule as [`JointGaussian::conditional`]).
-    pub fn mahalanobis(&self, indices: &[usize], values: &[f64]) -> Result<f64> {
+    /// marginal Gaussian plus independent observation noise of variances
+    /// `noise` (same ridge rule as [`JointGaussian::conditional`]).
+    pub fn mahalanobis(&self, indices: &[usize], values: &[f64], noise: &[f64]) -> Result<f64> {
         let o = indices.len();
-        let mut s = DMatrix::from_fn(o, o, |a, b| self.cov_entry(indices[a], indices[b]));
+        let mut s = DMatrix::from_fn(o, o, |a, b| {
+            self.cov_entry(indices[a], indices[b]) + if a == b { noise[a] } else { 0.0 }
+        });
         let r = DVector::from_fn(o, |a, _| values[a] - self.mean[indices[a]]);
         let chol = cholesky_with_ridge(&mut s)?;
         Ok(r.dot(&chol.solve(&r)).max(0.0).sqrt())
