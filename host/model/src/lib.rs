@@ -38,8 +38,9 @@ pub use file::{MeasurementSetText, ModelFile, Provenance, TemplateInfo};
 pub use model::{FitSettings, ShapeModel};
 pub use predict::{
     MeasurementReport, Measurer, Plausibility, PlausibilityLabel, PredictSettings, Prediction,
-    StageTimings, Target,
+    PredictionReport, StageTimings, StartMethod, Target,
 };
+pub use refine::{LbfgsImpl, StopRule};
 pub use tapeshape_measure::{Measured, Support, SupportPoint};
 
 /// Millimetres per metre: the optimiser works in mm (see the crate docs).

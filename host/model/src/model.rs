@@ -77,6 +77,16 @@ impl ShapeModel {
         }
         let v = meshes[0].len();
         let m = names.len();
+        if m == 0 {
+            return Err(ModelError::InvalidTraining(
+                "no measurements: the model needs at least one measurement to map from".into(),
+            ));
+        }
+        if v == 0 {
+            return Err(ModelError::InvalidTraining(
+                "the meshes have no vertices".into(),
+            ));
+        }
         for (i, mesh) in meshes.iter().enumerate() {
             if mesh.len() != v {
                 return Err(ModelError::InvalidTraining(format!(
@@ -139,8 +149,24 @@ impl ShapeModel {
         self.measurement_names.iter().position(|n| n == name)
     }
 
-    /// The mesh (V vertices, metres, station frame) for normalised weights `w`.
-    pub fn shape(&self, w: &[f64]) -> Vec<Vec3> {
+    /// The mesh (V vertices, metres, station frame) for normalised weights
+    /// `w` (length K); errors if `w` has the wrong length or is not finite.
+    pub fn shape(&self, w: &[f64]) -> Result<Vec<Vec3>> {
+        if w.len() != self.n_components() {
+            return Err(ModelError::InvalidInput(format!(
+                "{} weights given, the model has {} components",
+                w.len(),
+                self.n_components()
+            )));
+        }
+        if w.iter().any(|x| !x.is_finite()) {
+            return Err(ModelError::NonFinite("shape weights".into()));
+        }
+        Ok(self.shape_unchecked(w))
+    }
+
+    /// [`ShapeModel::shape`] for weights known to have length K.
+    pub(crate) fn shape_unchecked(&self, w: &[f64]) -> Vec<Vec3> {
         self.pca
             .reconstruct(w)
             .chunks_exact(3)

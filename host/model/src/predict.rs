@@ -591,7 +591,7 @@ impl ShapeModel {
             return Err(ModelError::NonFinite("start weights".into()));
         }
         let clamped_start = clamp(&mut w_start, settings.l);
-        let x_start = self.shape(&w_start);
+        let x_start = self.shape_unchecked(&w_start);
         let meas_start = self.measure_checked(measurer, &x_start, &which)?;
         let time_start = t0.elapsed();
 
@@ -604,7 +604,7 @@ impl ShapeModel {
             let (x_ref, meas_ref) = if round == 0 {
                 (&x_start, &meas_start)
             } else {
-                x = self.shape(&w);
+                x = self.shape_unchecked(&w);
                 meas = self.measure_checked(measurer, &x, &which)?;
                 (&x, &meas)
             };
@@ -625,7 +625,7 @@ impl ShapeModel {
             }
         }
         let clamped_step1 = clamp(&mut w, settings.l);
-        let mut x1 = self.shape(&w);
+        let mut x1 = self.shape_unchecked(&w);
         let mut meas1 = self.measure_checked(measurer, &x1, &which)?;
         let (err_start, err1) = (
             self.stage_energy(&given, &meas_start, &x_start),
@@ -709,7 +709,7 @@ impl ShapeModel {
                 "step 2 flipped {flipped} and collapsed {degenerate} triangles: the measurements may be inconsistent"
             ));
         }
-        let back = self.shape(&self.pca.project(x2.as_flattened()));
+        let back = self.shape_unchecked(&self.pca.project(x2.as_flattened()));
         let mut sum2 = 0.0;
         let mut max_d = 0.0f64;
         for (a, b) in x2.iter().zip(&back) {

@@ -46,7 +46,7 @@ fn paper34_prediction_on_generated_bodies() {
             err(|x| x.step1_mm),
             err(|x| x.step2_mm),
         );
-        let start = model.shape(&r.weights_start);
+        let start = model.shape(&r.weights_start).unwrap();
         let v2v = |a: &[tapeshape_mesh::Vec3]| -> f64 {
             a.iter()
                 .zip(body)

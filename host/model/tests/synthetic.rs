@@ -86,7 +86,7 @@ fn refinement_moves_an_in_family_body_closer_to_the_truth() {
     let pred = model
         .predict(&targets, &TubeMeasurer, &topo, &PredictSettings::default())
         .unwrap();
-    let start = model.shape(&pred.report.weights_start);
+    let start = model.shape(&pred.report.weights_start).unwrap();
     let d_start = v2v_mm(&start, &body);
     let d_final = v2v_mm(&pred.vertices, &body);
     assert!(
