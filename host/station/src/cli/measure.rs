@@ -99,8 +99,7 @@ pub struct Args {
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     let set = MeasurementSet::load(&args.set).context("loading the measurement set")?;
     if args.describe {
-        print!("{}", describe(&set));
-        return Ok(());
+        return write_stdout(&describe(&set));
     }
     let path = args.mesh.as_deref().context("no MESH given")?;
     let model = tapeshape_body::BodyModel::shared().context("loading the body template")?;
@@ -111,12 +110,13 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         .with_context(|| format!("compiling measurement set `{}`", set.name))?;
     let results = compiled.measure_each(&vertices)?;
     let failed = results.iter().filter(|r| r.is_err()).count();
-    if args.json {
+    let text = if args.json {
         let doc = to_json(&set, path, &results, args.support);
-        println!("{}", serde_json::to_string_pretty(&doc)?);
+        format!("{}\n", serde_json::to_string_pretty(&doc)?)
     } else {
-        print!("{}", render_table(&set, &results));
-    }
+        render_table(&set, &results)
+    };
+    write_stdout(&text)?;
     if failed > 0 {
         bail!(
             "{failed} of {} measurements failed (see above)",
@@ -124,6 +124,16 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Writes to stdout; a closed pipe (`tapeshape measure ... | head`) is not an error.
+fn write_stdout(text: &str) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        r => r.context("writing to stdout"),
+    }
 }
 
 /// Reads an OBJ or PLY body, converts it to metres and checks that it is in
@@ -179,6 +189,24 @@ pub fn read_template_mesh(
     Ok(vertices)
 }
 
+fn unit_name(u: Unit) -> &'static str {
+    match u {
+        Unit::M => "metres",
+        Unit::Dm => "decimetres",
+        Unit::Cm => "centimetres",
+        Unit::Mm => "millimetres",
+    }
+}
+
+fn unit_flag(u: Unit) -> &'static str {
+    match u {
+        Unit::M => "m",
+        Unit::Dm => "dm",
+        Unit::Cm => "cm",
+        Unit::Mm => "mm",
+    }
+}
+
 fn check_size(path: &Path, v: &[Vec3], unit: Unit) -> anyhow::Result<()> {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
@@ -206,17 +234,22 @@ fn check_size(path: &Path, v: &[Vec3], unit: Unit) -> anyhow::Result<()> {
         );
     }
     if !(0.5..=2.6).contains(&h) {
-        let hint = match h {
-            h if (500.0..=2600.0).contains(&h) => " (looks like millimetres: pass --unit mm)",
-            h if (50.0..=260.0).contains(&h) => " (looks like centimetres: pass --unit cm)",
-            h if (5.0..=26.0).contains(&h) => {
-                " (looks like decimetres, MakeHuman's unit: pass --unit dm)"
-            }
-            _ => "",
-        };
+        // Which unit would make the file's numbers a plausible person?
+        let raw = h / unit.to_metres();
+        let hint = [Unit::M, Unit::Dm, Unit::Cm, Unit::Mm]
+            .into_iter()
+            .find(|u| (0.5..=2.6).contains(&(raw * u.to_metres())))
+            .map_or(String::new(), |u| {
+                format!(
+                    " (the numbers look like {}: pass --unit {})",
+                    unit_name(u),
+                    unit_flag(u)
+                )
+            });
         bail!(
-            "{}: the body is {h:.4} m tall when read as {unit:?}; a person is 0.5-2.6 m{hint}",
-            path.display()
+            "{}: the body is {h:.4} m tall when read as {}; a person is 0.5-2.6 m{hint}",
+            path.display(),
+            unit_name(unit)
         );
     }
     Ok(())
@@ -372,6 +405,11 @@ mod tests {
         let path = write_template_obj(dir.path(), 1.0);
         let model = tapeshape_body::BodyModel::shared().unwrap();
         let v = read_template_mesh(&path, model.topology(), Unit::M).unwrap();
+        // Metres read as millimetres: an error that names the right unit.
+        let e = read_template_mesh(&path, model.topology(), Unit::Mm)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--unit m)"), "{e}");
         let set = MeasurementSet::builtin("quick").unwrap();
         let c = set
             .compile(model.topology(), &tapeshape_body::anatomy::anatomy())
