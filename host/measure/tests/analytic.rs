@@ -642,3 +642,80 @@ fn plane_through_three_landmarks_follows_the_body() {
         "{e}"
     );
 }
+
+#[test]
+fn the_cut_curve_through_the_anchor_is_chosen() {
+    // Two separate capped cylinders side by side (radii 0.1 and 0.05 m, the
+    // second 0.5 m to the right), one body part: the plane through a vertex
+    // of either must measure that cylinder's loop only.
+    let (n, rings) = (96, 4);
+    let a = prism(&circle(0.1, n), 0.4, rings);
+    let b = prism(&circle(0.05, n), 0.4, rings);
+    let offset = a.vertices.len() as u32;
+    let mut v = a.vertices.clone();
+    v.extend(b.vertices.iter().map(|p| [p[0] + 0.5, p[1], p[2]]));
+    let mut f: Vec<[u32; 3]> = a.faces().to_vec();
+    f.extend(b.faces().iter().map(|t| t.map(|i| i + offset)));
+    let mesh = Mesh::from_faces(v, f).unwrap();
+    let all: Vec<u32> = (0..mesh.faces().len() as u32).collect();
+    let an = anatomy(
+        &[("on_a", (2 * n) as u32), ("on_b", offset + (2 * n) as u32)],
+        &[("body", all)],
+    );
+    let entries = [
+        entry(
+            "loop_a",
+            "circumference",
+            "anchor = \"on_a\"\nnormal = [0, 0, 1]\nparts = [\"body\"]",
+        ),
+        entry(
+            "loop_b",
+            "circumference",
+            "anchor = \"on_b\"\nnormal = [0, 0, 1]\nparts = [\"body\"]",
+        ),
+    ]
+    .concat();
+    let c = compile(&mesh, &an, &entries);
+    let m = c.measure(&mesh.vertices).unwrap();
+    let polygon = |r: f64| 2.0 * n as f64 * r * (std::f64::consts::PI / n as f64).sin();
+    assert!((m[0].value - polygon(0.1)).abs() < 1e-12, "{}", m[0].value);
+    assert!((m[1].value - polygon(0.05)).abs() < 1e-12, "{}", m[1].value);
+    assert!(m[1]
+        .support
+        .points
+        .iter()
+        .all(|p| p.a >= offset && p.b >= offset));
+}
+
+#[test]
+fn a_cut_opened_by_the_part_boundary_measures_the_hull_of_the_open_chain() {
+    // Half a cylinder (the faces right of the YZ plane) as the part: the cut is
+    // an open half-polygon whose hull adds the chord, 2 r, across the gap.
+    let (r, n, rings) = (0.1, 96, 4);
+    let mesh = prism(&circle(r, n), 0.4, rings);
+    let half: Vec<u32> = mesh
+        .faces()
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| f.iter().map(|&v| mesh.vertices[v as usize][0]).sum::<f64>() > 0.0)
+        .map(|(i, _)| i as u32)
+        .collect();
+    let an = anatomy(&[("a", (2 * n) as u32)], &[("half", half)]);
+    let c = compile(
+        &mesh,
+        &an,
+        &entry(
+            "half_loop",
+            "circumference",
+            "anchor = \"a\"\nnormal = [0, 0, 1]\nparts = [\"half\"]",
+        ),
+    );
+    let m = c.measure_one(0, &mesh.vertices).unwrap();
+    let expected = (n / 2) as f64 * 2.0 * r * (std::f64::consts::PI / n as f64).sin() + 2.0 * r;
+    assert!(
+        (m.value - expected).abs() < 1e-9,
+        "{} vs {expected}",
+        m.value
+    );
+    assert_eq!(m.support.length(&mesh.vertices), m.value);
+}
