@@ -1,4 +1,27 @@
 //! Simulated tape measure, fault injection and pseudo-terminal wiring for tests and the demo.
+//!
+//! Why: the station must never lose or double a customer's reading, whatever the serial line
+//! does. That can only be shown by running the real pieces (the firmware logic or the real
+//! board binary, the station's tokio-serial link, its SQLite store) against a tape and a line
+//! that misbehave on purpose, reproducibly. This crate provides the misbehaving world; the
+//! end-to-end tests in `tests/` and the `tapeshape demo` command put it together.
+//!
+//! ```text
+//! tape (script) --pty--> firmware (harness | QEMU) --pty--> proxy (faults) --pty--> station
+//! ```
+//!
+//! * [`tape`]: a RENPHO-style tape driven by a [`tape::Script`] (pulls with live lines, holds,
+//!   pauses, unit changes, raw lines), played in real time or faster.
+//! * [`faults`]: seeded fault plans (bit flips, dropped and doubled bytes, garbage lines,
+//!   silences, unplugs) applied to a byte stream, with counts of what was done.
+//! * [`pty`]: raw-mode pseudo-terminals, and a port path that can be unplugged and replugged.
+//! * [`proxy`]: the fault-injecting proxy between the firmware's host port and the station.
+//! * [`harness`]: the firmware logic (`tapeshape_firmware::run`) on a host thread between two
+//!   ptys.
+//! * [`qemu`]: the real `mps2-an386` firmware under QEMU, with the same two ptys.
+//!
+//! Room is left for simulated customers and operators (a later issue) as modules of their own
+//! on top of [`tape`].
 
 pub mod faults;
 pub mod harness;
