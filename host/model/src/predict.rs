@@ -262,6 +262,82 @@ pub struct PredictionReport {
     pub settings: PredictSettings,
 }
 
+impl PredictionReport {
+    /// The report as a plain-text table for engineers, logs and tests: one
+    /// line per measurement (target, value after the start, step 1 and step 2,
+    /// error; millimetres, `-` where not given), then plausibility, stage
+    /// times and warnings.
+    pub fn to_text(&self) -> String {
+        use std::fmt::Write;
+        let opt = |v: Option<f64>, prec: usize| match v {
+            Some(x) => format!("{x:.prec$}"),
+            None => "-".to_string(),
+        };
+        let width = self
+            .measurements
+            .iter()
+            .map(|m| m.name.len())
+            .max()
+            .unwrap_or(0)
+            .max(11);
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{:width$}  {:>9}  {:>9}  {:>9}  {:>9}  {:>8}",
+            "measurement", "target mm", "start", "step 1", "step 2", "error mm"
+        );
+        for m in &self.measurements {
+            let _ = writeln!(
+                out,
+                "{:width$}  {:>9}  {:>9}  {:>9}  {:>9}  {:>8}",
+                m.name,
+                opt(m.target_mm, 1),
+                opt(m.start_mm, 2),
+                opt(m.step1_mm, 2),
+                opt(m.step2_mm, 2),
+                opt(m.error_mm, 3)
+            );
+        }
+        let p = &self.plausibility;
+        let _ = writeln!(
+            out,
+            "plausibility: weights Mahalanobis {:.2} over {} components (quantile {:.3}, {:?}); readings Mahalanobis {:.2} (quantile {:.3}, {:?})",
+            p.mahalanobis,
+            self.weights_step1.len(),
+            p.quantile,
+            p.label,
+            p.measurements_mahalanobis,
+            p.measurements_quantile,
+            p.measurements_label
+        );
+        let _ = writeln!(
+            out,
+            "out of PCA space: RMS {:.2} mm, max {:.2} mm; clamped at start {:?}, after step 1 {:?}; flipped triangles {}, collapsed {}",
+            p.out_of_space_rms_mm,
+            p.out_of_space_max_mm,
+            p.clamped_start,
+            p.clamped_step1,
+            p.flipped_triangles,
+            p.degenerate_triangles
+        );
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        let t = &self.timings;
+        let _ = writeln!(
+            out,
+            "time: start {:.1} ms, step 1 {:.1} ms, step 2 {:.1} ms, total {:.1} ms ({:?} start)",
+            ms(t.start),
+            ms(t.step1),
+            ms(t.step2),
+            ms(t.total),
+            self.start_method
+        );
+        for w in &self.warnings {
+            let _ = writeln!(out, "warning: {w}");
+        }
+        out
+    }
+}
+
 /// A predicted body and its report.
 #[derive(Debug, Clone)]
 pub struct Prediction {

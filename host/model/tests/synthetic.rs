@@ -71,6 +71,22 @@ fn steps_reduce_the_error_and_step2_fits_to_a_tenth_of_a_millimetre() {
     // The report serialises to JSON.
     let json = serde_json::to_string(r).unwrap();
     assert!(json.contains("\"girth_5\""));
+    let back: tapeshape_model::PredictionReport = serde_json::from_str(&json).unwrap();
+    assert_eq!(&back, r);
+    // The text report has one line per measurement with its numbers.
+    let text = r.to_text();
+    for m in &r.measurements {
+        let line = text.lines().find(|l| l.starts_with(&m.name)).unwrap();
+        assert!(
+            line.contains(&format!("{:.1}", m.target_mm.unwrap())),
+            "{line}"
+        );
+        assert!(
+            line.contains(&format!("{:.3}", m.error_mm.unwrap())),
+            "{line}"
+        );
+    }
+    assert!(text.contains("plausibility:") && text.contains("time: start"));
 }
 
 #[test]
