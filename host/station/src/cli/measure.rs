@@ -284,7 +284,8 @@ pub fn render_table(set: &MeasurementSet, results: &[Result<Measured, MeasureErr
     );
     for (d, r) in set.definitions.iter().zip(results) {
         let value = match r {
-            Ok(m) => format!("{:.1}", m.value * 1000.0),
+            // `+ 0.0` turns an empty sum's -0.0 into 0.0 for display.
+            Ok(m) => format!("{:.1}", m.value * 1000.0 + 0.0),
             Err(_) => "ERROR".to_string(),
         };
         out.push_str(&format!(
