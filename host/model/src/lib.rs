@@ -16,7 +16,7 @@
 //!   over the measurement supports) and `E_s`, with analytic gradients.
 //! * [`refine`]: L-BFGS (argmin) with the paper's stopping rules.
 //! * [`predict`]: the prediction pipeline and its report ([`Prediction`]).
-//! * [`file`]: the versioned model file (see `docs/model-format.md`).
+//! * [`mod@file`]: the versioned model file (see `docs/model-format.md`).
 //!
 //! Units and frame: the public API takes and returns **metres** in the station
 //! frame (Z up, +Y front, +X the body's right). Inside the optimiser everything

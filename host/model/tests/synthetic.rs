@@ -217,6 +217,26 @@ fn bad_targets_are_clear_errors() {
     assert!(model
         .predict(&tol, &TubeMeasurer, &topo, &settings)
         .is_err());
+    // A topology of another template, settings out of range.
+    let other = tapeshape_mesh::Topology::new(3, vec![[0, 1, 2]]).unwrap();
+    let ok: Vec<Option<Target>> = vec![Some(Target::exact(1.0)); 7];
+    assert!(model
+        .predict(&ok, &TubeMeasurer, &other, &settings)
+        .is_err());
+    let bad_lambda = PredictSettings {
+        lambda: 1.5,
+        ..PredictSettings::default()
+    };
+    assert!(model
+        .predict(&ok, &TubeMeasurer, &topo, &bad_lambda)
+        .is_err());
+    // Other entry points check their inputs too.
+    assert!(model.conditional_measurements(&[Some(1.0); 3]).is_err());
+    let mut nan_obs = vec![None; 7];
+    nan_obs[1] = Some(f64::NAN);
+    assert!(model.conditional_measurements(&nan_obs).is_err());
+    assert!(model.shape(&[0.0; 2]).is_err());
+    assert!(model.shape(&vec![0.0; model.n_components()]).is_ok());
 }
 
 #[test]
