@@ -261,7 +261,7 @@ impl ShapeModel {
         let d = self.pca.dim();
         let k = self.pca.n_components;
         let m = self.measurement_names.len();
-        if d == 0 || d % 3 != 0 {
+        if d == 0 || !d.is_multiple_of(3) {
             return bad(format!(
                 "mean has {d} entries, not a positive multiple of 3"
             ));
