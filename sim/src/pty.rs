@@ -356,7 +356,6 @@ mod tests {
     #[tokio::test]
     async fn unplug_and_replug_through_the_symlink() {
         let mut port = PlugPort::new_plugged("station").unwrap();
-        let first = port.slave_path().unwrap().to_path_buf();
         let mut host = TtyStream::open_path(port.path()).unwrap();
         port.master().unwrap().write_all(b"abc").await.unwrap();
         let mut b = [0u8; 3];
@@ -381,7 +380,6 @@ mod tests {
             std::fs::canonicalize(port.path()).unwrap(),
             port.slave_path().unwrap()
         );
-        let _ = first;
         host2.write_all(b"hi").await.unwrap();
         port.master()
             .unwrap()
