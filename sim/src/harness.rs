@@ -436,4 +436,19 @@ mod tests {
         assert_eq!(st.rejected.total(), 1, "{st:?}");
         assert_eq!(st.next_seq, 1);
     }
+
+    /// A reboot starts a new boot: a hello with the new boot id.
+    #[tokio::test]
+    async fn reboot_announces_a_new_boot() {
+        let fw = FirmwareHarness::start(HarnessConfig::fast(0xCD, 1)).unwrap();
+        let mut host = TtyStream::open_path(fw.host_path()).unwrap();
+        let mut dec = FrameDecoder::<DeviceMsg>::new();
+        let mut q = Default::default();
+        let is_hello =
+            |b: u32| move |m: &DeviceMsg| matches!(m, DeviceMsg::Hello(h) if h.boot_id == b);
+        next_msg(&mut host, &mut dec, &mut q, is_hello(1)).await;
+        fw.reboot(2).unwrap();
+        next_msg(&mut host, &mut dec, &mut q, is_hello(2)).await;
+        assert_eq!(fw.boots(), 2);
+    }
 }
