@@ -154,7 +154,7 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             let mean_shape = engine
                 .file()
                 .model
-                .shape(&vec![0.0; engine.file().model.n_components()]);
+                .shape(&vec![0.0; engine.file().model.n_components()])?;
             for i in 0..n {
                 let body = &heldout.bodies[i];
                 let truth: Vec<f64> = idx

@@ -24,15 +24,26 @@
 //!
 //! * unknown name: the closest known names are suggested;
 //! * zero, negative, NaN or infinite value or tolerance;
-//! * unit slip: a value more than [`MARGINAL_Z_ERROR`] training SDs from the
-//!   mean that becomes typical when read in another unit ("stature 1.76 cm
-//!   looks like metres"); a value that far out with no such explanation is
-//!   refused as outside the population the model knows;
-//! * contradiction: each reading's z-score under the training Gaussian
-//!   conditioned on the other readings, with every reading's own error (its
-//!   tolerance, else its ISO 20685-1 class) added as noise: above
-//!   [`CONDITIONAL_Z_ERROR`] it is refused ("waist 300 cm is 25 SD above what
-//!   hip predicts"), above [`CONDITIONAL_Z_WARN`] it is a warning;
+//! * unit slip: a value more than [`MARGINAL_Z_ERROR`] SDs from the mean
+//!   that becomes typical when read in another unit ("stature 1.76 cm looks
+//!   like metres"); a value that far out with no such explanation is refused
+//!   as outside the population the model knows. Mean and SD are those of
+//!   real people (ANSUR II train split) for measurements that follow an
+//!   ANSUR column, else the training population's; the training
+//!   population must agree (for the reason given below);
+//! * contradiction: each reading's z-score under the Gaussian of real people
+//!   (ANSUR II train split) conditioned on the other readings that follow an
+//!   ANSUR column, with every reading's own error (its tolerance, else its
+//!   ISO 20685-1 class) added as noise: above [`CONDITIONAL_Z_ERROR`] it is
+//!   refused ("waist 125 cm is 9 SD above what hip predicts") when the
+//!   training population's conditional (all other readings) refuses it too,
+//!   above [`CONDITIONAL_Z_WARN`] it is a warning. Both must agree because
+//!   neither reference is right for every reading: a generated population's
+//!   relations are far tighter than real people's (judged by them alone,
+//!   every ANSUR II test subject's ansur set was refused), and some
+//!   measurements of generated bodies differ systematically from ANSUR's
+//!   (judged by ANSUR alone, generated bodies' neck readings were refused).
+//!   Readings without an ANSUR column are only warned about;
 //! * an implausible but possible set is predicted, with a warning and its
 //!   plausibility (Mahalanobis distances) in the report.
 
@@ -431,6 +442,78 @@ pub struct Engine {
     compiled: CompiledSet,
     topology: Arc<Topology>,
     stats: Vec<(f64, f64)>,
+    real: OnceLock<RealStats>,
+}
+
+/// Statistics of real people (ANSUR II **train split**, both sexes) for the
+/// model's measurements that follow an ANSUR column: the reference for
+/// "could a person have these readings". The generated population's
+/// relations between measurements are much tighter than real people's (a
+/// generator with few degrees of freedom), so judging a real customer's
+/// readings by them refuses real people (measured: every ANSUR test-split
+/// subject with the full ansur set was refused).
+#[derive(Debug, Default)]
+struct RealStats {
+    /// Per model measurement: its row in `mean`/`cov`, if it has an ANSUR column.
+    row: Vec<Option<usize>>,
+    /// Means, metres.
+    mean: Vec<f64>,
+    /// Covariance, metres^2.
+    cov: nalgebra::DMatrix<f64>,
+}
+
+impl RealStats {
+    fn compute(set: &MeasurementSet) -> RealStats {
+        let Ok(ansur) = crate::ansur::Ansur::get() else {
+            return RealStats {
+                row: vec![None; set.len()],
+                ..RealStats::default()
+            };
+        };
+        let mut row = vec![None; set.len()];
+        let mut columns: Vec<&str> = Vec::new();
+        for (j, d) in set.definitions.iter().enumerate() {
+            if let Some(c) = d.ansur.as_deref() {
+                if ansur.check_column(c).is_ok() {
+                    row[j] = Some(columns.len());
+                    columns.push(c);
+                }
+            }
+        }
+        let subjects: Vec<&crate::ansur::Subject> = ansur
+            .subjects(None, crate::ansur::Split::Train)
+            .filter(|s| columns.iter().all(|c| s.dim(c).is_some_and(f64::is_finite)))
+            .collect();
+        if subjects.len() < columns.len() + 2 {
+            return RealStats {
+                row: vec![None; set.len()],
+                ..RealStats::default()
+            };
+        }
+        let (mean, sd, corr) = crate::ansur::statistics(&subjects, &columns);
+        let k = columns.len();
+        let cov = nalgebra::DMatrix::from_fn(k, k, |a, b| corr[a][b] * sd[a] * sd[b]);
+        RealStats { row, mean, cov }
+    }
+
+    /// Mean and SD (metres) of row `r`.
+    fn marginal(&self, r: usize) -> (f64, f64) {
+        (self.mean[r], self.cov[(r, r)].max(0.0).sqrt())
+    }
+
+    /// Conditional mean and variance of row `a` given `observed` (row, value, noise variance).
+    fn conditional(&self, a: usize, observed: &[(usize, f64, f64)]) -> Option<(f64, f64)> {
+        let o = observed.len();
+        let s_oo = nalgebra::DMatrix::from_fn(o, o, |p, q| {
+            self.cov[(observed[p].0, observed[q].0)] + if p == q { observed[p].2 } else { 0.0 }
+        });
+        let s_ao = nalgebra::DVector::from_fn(o, |p, _| self.cov[(a, observed[p].0)]);
+        let resid = nalgebra::DVector::from_fn(o, |p, _| observed[p].1 - self.mean[observed[p].0]);
+        let chol = s_oo.cholesky()?;
+        let mean = self.mean[a] + s_ao.dot(&chol.solve(&resid));
+        let var = self.cov[(a, a)] - s_ao.dot(&chol.solve(&s_ao));
+        Some((mean, var.max(0.0)))
+    }
 }
 
 impl std::fmt::Debug for Engine {
@@ -475,6 +558,7 @@ impl Engine {
             compiled,
             topology,
             stats,
+            real: OnceLock::new(),
         })
     }
 
@@ -552,10 +636,11 @@ impl Engine {
             })
             .collect();
         scored.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let best = scored.first().map_or(0.0, |s| s.0);
         let close: Vec<&str> = scored
             .iter()
             .take(3)
-            .filter(|s| s.0 > 0.6)
+            .filter(|s| s.0 > 0.6 && s.0 >= best - 0.05)
             .map(|s| s.1)
             .collect();
         let suggestion = if close.is_empty() {
@@ -628,9 +713,18 @@ impl Engine {
                     )));
                 }
             }
-            let (mean, sd) = self.stats[j];
-            let z = (v - mean) / sd;
-            if z.abs() > MARGINAL_Z_ERROR {
+            let real = self.real.get_or_init(|| RealStats::compute(&self.set));
+            let (mean, sd) = match real.row[j] {
+                Some(r) => real.marginal(r),
+                None => self.stats[j],
+            };
+            let z = if sd > 0.0 { (v - mean) / sd } else { 0.0 };
+            // Refused only when the training population agrees: some
+            // measurements of generated bodies differ systematically from
+            // ANSUR's, and the model can still fit what it was trained on.
+            let (tm, ts) = self.stats[j];
+            let z_train = if ts > 0.0 { (v - tm) / ts } else { 0.0 };
+            if z.abs() > MARGINAL_Z_ERROR && z_train.abs() > MARGINAL_Z_ERROR {
                 return Err(PredictError::OutOfRange(self.out_of_range(r, mean, sd, z)));
             }
             index.push(j);
@@ -668,10 +762,39 @@ impl Engine {
                     .filter(|&b| b != a)
                     .map(|b| (index[b], inputs.readings[b].value.metres, noise[b].powi(2)))
                     .collect();
+                let real = self.real.get_or_init(|| RealStats::compute(&self.set));
+                // Readings with an ANSUR column are judged against real
+                // people (given the other such readings); the others against
+                // the training population, as a warning only.
+                let real_obs: Vec<(usize, f64, f64)> = (0..index.len())
+                    .filter(|&b| b != a)
+                    .filter_map(|b| {
+                        real.row[index[b]]
+                            .map(|r| (r, inputs.readings[b].value.metres, noise[b].powi(2)))
+                    })
+                    .collect();
+                let value = inputs.readings[a].value.metres;
                 let cond = self.file.model.joint.conditional(&[index[a]], &observed)?;
-                let mu = cond.mean[0];
-                let sd = (cond.cov[(0, 0)].max(0.0) + noise[a].powi(2)).sqrt();
-                let zc = (inputs.readings[a].value.metres - mu) / sd;
+                let (mu_t, sd_t) = (
+                    cond.mean[0],
+                    (cond.cov[(0, 0)].max(0.0) + noise[a].powi(2)).sqrt(),
+                );
+                let z_t = (value - mu_t) / sd_t;
+                let real_cond = match real.row[index[a]] {
+                    Some(r) if !real_obs.is_empty() => real.conditional(r, &real_obs),
+                    _ => None,
+                };
+                // Refused only when neither real people nor the training
+                // population explain the reading; the message uses the
+                // real-people prediction where there is one.
+                let (mu, sd, zc, refusable) = match real_cond {
+                    Some((m, v)) => {
+                        let sd = (v + noise[a].powi(2)).sqrt();
+                        let z = (value - m) / sd;
+                        (m, sd, z, z_t.abs() > CONDITIONAL_Z_ERROR)
+                    }
+                    None => (mu_t, sd_t, z_t, false),
+                };
                 let c = &mut checks[a];
                 c.predicted_mm = Some(mu * 1000.0);
                 c.predicted_sd_mm = Some(sd * 1000.0);
@@ -703,7 +826,7 @@ impl Engine {
                     mu * 100.0,
                     sd * 100.0
                 );
-                if zc.abs() > CONDITIONAL_Z_ERROR {
+                if refusable && zc.abs() > CONDITIONAL_Z_ERROR {
                     bad.push((zc.abs(), msg));
                 } else if zc.abs() > CONDITIONAL_Z_WARN {
                     warnings.push(format!("{msg}: check this reading"));
