@@ -1077,28 +1077,9 @@ fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
         let l = perp(perp([1.0, 0.0, 0.0], a), f);
         (f, l)
     };
-    let mid_arm = scale(add(shoulder, elbow), 0.5);
-    let (f_up, l_up) = basis(a_up);
     let section = |parts: &'static [u8], at: V3, a: V3, h: f64| {
         right_of(parts).filter(move |&k| dot(sub(p(k), at), a).abs() < h)
     };
-    for (name, dir, desc) in [
-        ("biceps_front", f_up, "most anterior"),
-        ("biceps_lateral", l_up, "most lateral"),
-        ("biceps_back", scale(f_up, -1.0), "most posterior"),
-        ("biceps_medial", scale(l_up, -1.0), "most medial"),
-    ] {
-        let k = c.argmax(
-            section(&[UPPER_ARM], mid_arm, a_up, 0.008),
-            |q| dot(q, dir),
-            name,
-        )?;
-        sided.push((
-            name,
-            format!("{desc} upper-arm vertex within 8 mm of the plane through the midpoint of the shoulder and elbow joints, normal to the upper-arm axis (directions: +y / +x made perpendicular to the axis)"),
-            k,
-        ));
-    }
     let a_elbow = unit(add(a_up, a_fore));
     let (f_el, l_el) = basis(a_elbow);
     let radiale = c.argmax(
@@ -1121,6 +1102,45 @@ fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
         "most posterior vertex of the same elbow section".into(),
         olecranon,
     ));
+    // The four arm-loop points are chosen by angle around the section's
+    // centroid, not by extent along a direction: the section band is sparse
+    // on the underside of the A-pose arm, and "furthest towards medial" then
+    // picked the same vertex as "furthest towards front".
+    // The section is ANSUR's mid upper arm: the plane through the midpoint of
+    // the acromion and the radiale, normal to the line between them (the
+    // shoulder joint sits inside the shoulder, and a section halfway to the
+    // elbow joint still met the armpit, whose underside is torso).
+    let a_mid = unit(sub(p(radiale), p(acromion)));
+    let mid_upper_arm = scale(add(p(acromion), p(radiale)), 0.5);
+    let (f_mid, l_mid) = basis(a_mid);
+    let band: Vec<_> = section(&[UPPER_ARM], mid_upper_arm, a_mid, 0.008).collect();
+    let centre = {
+        let mut sum = [0.0; 3];
+        for &k in &band {
+            sum = add(sum, p(k));
+        }
+        scale(sum, 1.0 / band.len().max(1) as f64)
+    };
+    for (name, dir, desc) in [
+        ("biceps_front", f_mid, "anterior"),
+        ("biceps_lateral", l_mid, "lateral"),
+        ("biceps_back", scale(f_mid, -1.0), "posterior"),
+        ("biceps_medial", scale(l_mid, -1.0), "medial"),
+    ] {
+        let k = c.argmax(
+            band.iter().copied(),
+            |q| {
+                let r = perp(sub(q, centre), a_mid);
+                dot(r, dir) / (dot(r, r).sqrt() + 1e-12)
+            },
+            name,
+        )?;
+        sided.push((
+            name,
+            format!("upper-arm vertex within 8 mm of the plane through the midpoint of the acromion and radiale landmarks (normal to the line between them: ANSUR's mid upper arm) whose direction from the section's centroid is closest to {desc} (+y / +x made perpendicular to that line)"),
+            k,
+        ));
+    }
     let thumb = perp(sub(c.joint("finger1-1.R", false)?, wrist), a_fore);
     let stylion = c.argmax(
         section(&[FOREARM, HAND], wrist, a_fore, 0.008),
