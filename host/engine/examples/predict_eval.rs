@@ -11,7 +11,7 @@
 //!     [--model host/engine/models/default.tsm.gz]
 //! # ISO 20685-1 pass shares for quick and ansur (generated bodies and ANSUR test subjects)
 //! cargo run --release -p tapeshape-engine --example predict_eval -- iso \
-//!     --heldout /work/out/held60s2.tsd --n 50 --ansur 100 --subsets 3 [--model FILE]
+//!     --heldout /work/out/held60s2.tsd --n 50 --ansur 100 --subsets 3 [--model FILE] [--l 3]
 //! ```
 
 use std::collections::BTreeMap;
@@ -287,7 +287,12 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let n: usize = arg(args, "--n").map_or(Ok(50), |s| s.parse())?;
     let n_ansur: usize = arg(args, "--ansur").map_or(Ok(100), |s| s.parse())?;
     let n_subsets: usize = arg(args, "--subsets").map_or(Ok(3), |s| s.parse())?;
-    let settings = PredictSettings::default();
+    let l: f64 = arg(args, "--l").map_or(Ok(3.0), |s| s.parse())?;
+    let settings = PredictSettings {
+        l,
+        ..PredictSettings::default()
+    };
+    println!("settings: l = {l}, lambda = 0.1, s = 3");
     let heldout = arg(args, "--heldout")
         .map(|h| Dataset::read(&PathBuf::from(h)))
         .transpose()?;

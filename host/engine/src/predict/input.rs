@@ -350,6 +350,7 @@ impl Inputs {
                 tolerance,
             })?;
         }
+        mark_file_unit(&mut out, unit);
         Ok(out)
     }
 
@@ -401,7 +402,18 @@ impl Inputs {
                 tolerance: None,
             })?;
         }
+        mark_file_unit(&mut out, unit);
         Ok(out)
+    }
+}
+
+/// A file-level `unit` states the unit of its bare numbers: they count as
+/// typed (no "no unit given" note).
+fn mark_file_unit(inputs: &mut Inputs, unit: Option<Unit>) {
+    if unit.is_some() {
+        for r in &mut inputs.readings {
+            r.value.unit_typed = true;
+        }
     }
 }
 
@@ -441,6 +453,7 @@ mod tests {
             assert!((get("chest").value.metres - 0.98).abs() < 1e-12);
             assert!((get("waist").value.metres - 0.85).abs() < 1e-12);
             assert!((get("waist").tolerance.unwrap() - 0.01).abs() < 1e-12);
+            assert!(inputs.readings.iter().all(|r| r.value.unit_typed));
         }
         let c = Inputs::from_csv("stature,chest,unit\n1765,980,mm\n", "c").unwrap();
         assert_eq!(c.readings.len(), 2);
