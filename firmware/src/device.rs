@@ -513,10 +513,15 @@ impl Device {
         }
         if self.host_seen {
             if let Some(r) = self.queue.iter().nth(self.send_from).copied() {
-                self.send_from += 1;
-                if self.send_from >= self.queue.len() {
+                // The retransmission timer runs from the last time the OLDEST
+                // unacknowledged reading was sent (or from the last ack that made
+                // progress). Restarting it for every newly confirmed reading would
+                // postpone the resend of a lost one for as long as the tape keeps
+                // confirming faster than `retransmit_ms`.
+                if self.send_from == 0 {
                     self.next_retransmit_ms = after(now, self.cfg.retransmit_ms);
                 }
+                self.send_from += 1;
                 return Some(DeviceMsg::Reading(r));
             }
         }

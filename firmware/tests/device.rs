@@ -216,6 +216,30 @@ fn a_new_reading_goes_out_at_once_and_joins_the_round() {
 }
 
 #[test]
+fn a_lost_reading_is_resent_even_while_the_tape_keeps_confirming() {
+    // The tape confirms every 100 ms, faster than the 300 ms retransmission
+    // interval, and the host acknowledges nothing (reading 0 was lost). The
+    // oldest reading must still go out again 300 ms after it was sent: new
+    // readings must not keep pushing the timer away.
+    let mut d = linked();
+    let mut resent_at = None;
+    for i in 0..10u32 {
+        let t = u64::from(i) * 100;
+        d.feed_tape(&confirmed(1000 + 10 * i), t);
+        let s = seqs(&drain(&mut d, t));
+        if i > 0 && s.contains(&0) {
+            resent_at = Some(t);
+            break;
+        }
+    }
+    assert_eq!(
+        resent_at,
+        Some(300),
+        "reading 0 was not resent 300 ms after it was sent"
+    );
+}
+
+#[test]
 fn duplicate_stale_and_future_acks_change_nothing() {
     let mut d = linked();
     for v in [1000, 2000, 3000] {
