@@ -273,10 +273,10 @@ pub async fn faulty_line_run(device: DeviceUnderTest, run: FaultyLineRun) {
     link.set_session(Some(session.id));
     link.set_naming(Naming::Numbered);
 
-    // A reading every `pace`: two live lines on the way out, then the hold. The pace must stay
-    // slower than the firmware's retransmit interval: the firmware restarts its retransmit
-    // timer on every first transmission of a new reading, so under a faster stream of
-    // confirmations a lost reading would not be resent until the tape paused.
+    // A reading every `pace`: two live lines on the way out, then the hold. Go-back-N
+    // recovery from corrupted frames must keep up with the tape: the pace allows a few
+    // readings per retransmission round (the firmware times its retransmission from the
+    // oldest unacknowledged reading's last send).
     let step = pace / 3;
     let script = Script::session(readings, seed, 2000..15000, step * 2);
     let expected = script.confirmed_values();
