@@ -57,7 +57,7 @@ pub enum Split {
 impl Split {
     /// The split of a subject id.
     pub fn of(id: u32) -> Split {
-        if id % 4 == 0 {
+        if id.is_multiple_of(4) {
             Split::Test
         } else {
             Split::Train
