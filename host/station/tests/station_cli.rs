@@ -177,18 +177,26 @@ async fn demo_stores_exactly_what_the_simulated_tape_confirmed() {
         String::from_utf8_lossy(&out.stderr)
     );
     let set = tapeshape_measure::MeasurementSet::builtin("quick").unwrap();
-    // The demo's tape script, rebuilt here: the oracle for the stored values.
-    let script = tapeshape_sim::tape::Script::session(
-        set.definitions.len(),
-        3,
-        3000..12_000,
-        Duration::from_millis(1500),
-    );
+    // The oracle: the printed ANSUR II subject's own record. Every stored
+    // value must be that person's real measurement (tenths of a mm).
+    let id: u32 = stdout
+        .split("test-split subject ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|w| w.parse().ok())
+        .unwrap_or_else(|| panic!("no subject id in the demo's output:\n{stdout}"));
+    assert_eq!(id % 4, 0, "the demo customer must come from the test split");
+    let subject = tapeshape_engine::ansur::Ansur::get()
+        .unwrap()
+        .subject(id)
+        .unwrap();
     let want: Vec<(String, u32)> = set
         .definitions
         .iter()
-        .map(|d| d.name.clone())
-        .zip(script.confirmed_values())
+        .map(|d| {
+            let mm = subject.dim(d.ansur.as_deref().unwrap()).unwrap() * 1000.0;
+            (d.name.clone(), (mm * 10.0).round() as u32)
+        })
         .collect();
     let store = Store::open(&data).unwrap();
     let list = store.list_sessions().unwrap();

@@ -9,8 +9,11 @@
 //! the firmware's host port exactly as `tapeshape station` does, and prints
 //! the stored session.
 //!
-//! The values are synthetic lengths drawn from a seeded generator, not the
-//! measurements of a body: this shows the data path, not shape estimation.
+//! The customer: an ANSUR II **test-split** subject (id divisible by 4, never
+//! used to train or fit anything), chosen by `--seed`; the simulated operator
+//! takes that person's real measurements for every entry of the set that maps
+//! to an ANSUR column (all of `quick` and `ansur`). A set without such a
+//! mapping (e.g. `paper34`) falls back to synthetic lengths, and says so.
 
 use std::time::Duration;
 
@@ -67,10 +70,8 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
             store.path().display()
         );
     }
-    println!(
-        "demo values are synthetic lengths of 30 to 120 cm from seed {}, not a body's measurements",
-        args.seed
-    );
+    let (script, customer) = demo_script(&set, args.seed)?;
+    println!("demo customer: {customer}");
     let session = store.create_session(&format!("demo-{}", args.seed), Some(&set.name))?;
     let plan = plan(&store, &session, &[])?;
     let n = set.definitions.len();
@@ -88,8 +89,6 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
             .unwrap_or(1);
         let harness = FirmwareHarness::start(HarnessConfig::fast(0x7a9e_da70_0000_0001, boot_id))
             .context("starting the simulated tape firmware")?;
-        // Lengths from 30 to 120 cm, pulled out over 1.5 s each (script time).
-        let script = Script::session(n, args.seed, 3000..12_000, Duration::from_millis(1500));
         let timeline = script
             .timeline(TapeTiming::default())
             .context("building the simulated tape's script")?;
@@ -129,4 +128,52 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         crate::cli::session::render(&store.open_session(session.id)?)
     );
     Ok(())
+}
+
+/// The simulated operator's tape script for `set` and a line describing the
+/// customer. Every entry with an ANSUR column gets the real value of the
+/// ANSUR II test-split subject number `seed` (modulo the split's size), pulled
+/// out over 1.5 s (script time) and held; if any entry has no ANSUR column,
+/// the whole script falls back to seeded synthetic lengths of 30-120 cm.
+pub fn demo_script(
+    set: &tapeshape_measure::MeasurementSet,
+    seed: u64,
+) -> anyhow::Result<(Script, String)> {
+    use tapeshape_engine::ansur::{Ansur, Split};
+    use tapeshape_sim::tape::Step;
+    let pull = Duration::from_millis(1500);
+    let ansur = Ansur::get()?;
+    let test: Vec<_> = ansur.subjects(None, Split::Test).collect();
+    let subject = test[(seed % test.len() as u64) as usize];
+    let values: Option<Vec<u32>> = set
+        .definitions
+        .iter()
+        .map(|d| {
+            let metres = subject.dim(d.ansur.as_deref()?)?;
+            Some((metres * 10_000.0).round() as u32)
+        })
+        .collect();
+    let Some(values) = values else {
+        let script = Script::session(set.definitions.len(), seed, 3000..12_000, pull);
+        return Ok((
+            script,
+            format!(
+                "synthetic lengths of 30 to 120 cm from seed {seed} (set {} has entries without an ANSUR II column)",
+                set.name
+            ),
+        ));
+    };
+    let mut steps = Vec::with_capacity(2 * values.len());
+    for v in values {
+        steps.push(Step::Pull {
+            to_tenth_mm: v,
+            over: pull,
+        });
+        steps.push(Step::Hold);
+    }
+    let customer = format!(
+        "ANSUR II test-split subject {} ({:?}, {} years): the tape reads this person's real {} measurements",
+        subject.id, subject.sex, subject.age_years, set.name
+    );
+    Ok((Script { steps }, customer))
 }
