@@ -4,9 +4,11 @@
 //!   sequence bookkeeping); durable before anything is acknowledged.
 //! * [`link`]: the serial link to the tape firmware (handshake, acknowledgement
 //!   after commit, reconnection).
+//! * [`tui`]: the kiosk terminal interface (screens, operator flow).
 //! * [`cli`]: the subcommands of the `tapeshape` binary (src/main.rs is a
 //!   thin dispatcher over them).
 
 pub mod cli;
 pub mod link;
 pub mod store;
+pub mod tui;

@@ -38,6 +38,8 @@ enum Command {
     Train(cli::train::Args),
     /// Estimate a body mesh from tape measurements (any subset of the model's); --help for units and files.
     Predict(cli::predict::Args),
+    /// Run one of the paper's experiments (and its baselines) and write its tables and figures.
+    Eval(cli::eval::Args),
 }
 
 fn main() -> ExitCode {
@@ -52,6 +54,7 @@ fn main() -> ExitCode {
         Command::Dataset(a) => cli::dataset::run(a, &args.global),
         Command::Train(a) => cli::train::run(a, &args.global),
         Command::Predict(a) => cli::predict::run(a, &args.global),
+        Command::Eval(a) => cli::eval::run(a, &args.global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -16,6 +16,7 @@ use crate::store::{resolve_data_dir, Store};
 
 pub mod dataset;
 pub mod demo;
+pub mod eval;
 pub mod measure;
 pub mod predict;
 pub mod session;

@@ -1,0 +1,2 @@
+//! The kiosk terminal interface (ratatui + crossterm) of `tapeshape station`
+//! and `tapeshape demo` (issue 5).
