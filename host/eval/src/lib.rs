@@ -2,3 +2,7 @@
 //! with, behind the same predict interface as the method, and the paper's
 //! experiments as commands that regenerate their tables and figures
 //! (`tapeshape eval NAME --out docs/results/NAME`).
+
+pub mod method;
+
+pub use method::{Method, MethodError, MethodOutput, TrainingData};
