@@ -37,8 +37,9 @@ mod model;
 pub use file::{MeasurementSetText, ModelFile, Provenance, TemplateInfo};
 pub use model::{FitSettings, ShapeModel};
 pub use predict::{
-    MeasurementReport, Measurer, Plausibility, PlausibilityLabel, PredictSettings, Prediction,
-    PredictionReport, StageTimings, StartMethod, Target,
+    Control, MeasurementReport, Measurer, Plausibility, PlausibilityLabel, PredictObserver,
+    PredictProgress, PredictSettings, PredictStage, Prediction, PredictionReport, StageTimings,
+    StartMethod, Target,
 };
 pub use refine::{LbfgsImpl, StopRule};
 pub use tapeshape_measure::{Measured, Support, SupportPoint};
@@ -80,6 +81,10 @@ pub enum ModelError {
         /// What went wrong and what to do.
         message: String,
     },
+    /// The prediction was cancelled by its [`predict::PredictObserver`]
+    /// (nothing was produced; predict again to get a body).
+    #[error("prediction cancelled at {0}")]
+    Cancelled(String),
     /// I/O error with the file it concerns.
     #[error("model file {path}: {source}")]
     Io {

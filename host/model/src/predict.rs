@@ -17,6 +17,15 @@
 //! (1 for a reading without tolerance): since `(l^2 - l_t^2)^2 ~ 4 l^2 (l - l_t)^2`,
 //! this is the Gaussian log-likelihood weighting of each reading's error.
 //!
+//! Progress and cancelling: [`ShapeModel::predict_observed`] calls a
+//! [`PredictObserver`] at every stage boundary (start, each round of step 1
+//! and step 2, done) and every [`OBSERVE_EVERY`] objective evaluations inside
+//! the L-BFGS runs; the observer may answer [`Control::Cancel`], and the
+//! prediction then returns [`ModelError::Cancelled`] without a body. Inside a
+//! run, cancelling makes the watched objective return NaN from then on,
+//! which both L-BFGS implementations treat as the end of the run (no change
+//! to the solvers was needed); the pipeline then sees the flag and stops.
+//!
 //! Robustness: a stage that ends with a higher `E_m` than it started from
 //! (each stage's `E_m` evaluated with per-segment targets set on its own
 //! shape, so stages compare like for like) is undone with a warning; a non-finite energy ends
@@ -28,7 +37,11 @@ use tapeshape_measure::Measured;
 use tapeshape_mesh::{Topology, Vec3};
 
 use crate::energy::{measurement_energy, segment_terms, SegmentTerm};
-use crate::refine::{minimise, LbfgsImpl, RunInfo, StopRule, VertexObjective, WeightObjective};
+use std::cell::Cell;
+
+use crate::refine::{
+    minimise, LbfgsImpl, Objective, RunInfo, StopRule, VertexObjective, WeightObjective,
+};
 use crate::{ModelError, Result, ShapeModel, MM_PER_M};
 
 /// Error type a [`Measurer`] returns.
@@ -347,6 +360,182 @@ pub struct Prediction {
     pub report: PredictionReport,
 }
 
+/// Where a prediction is (see [`PredictProgress`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum PredictStage {
+    /// Finding the start weights and measuring the start shape.
+    Start,
+    /// Step 1 (over the weights), round `run` (0-based) of `of`.
+    Step1 {
+        /// Round, 0-based.
+        run: usize,
+        /// Number of rounds (the settings' `s`).
+        of: usize,
+    },
+    /// Step 2 (over the vertices), round `run` (0-based) of `of`.
+    Step2 {
+        /// Round, 0-based.
+        run: usize,
+        /// Number of rounds (the settings' `s`).
+        of: usize,
+    },
+    /// The body is ready (the report is being finished).
+    Done,
+}
+
+impl std::fmt::Display for PredictStage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Start => write!(f, "start"),
+            Self::Step1 { run, of } => write!(f, "step 1, round {} of {of}", run + 1),
+            Self::Step2 { run, of } => write!(f, "step 2, round {} of {of}", run + 1),
+            Self::Done => write!(f, "done"),
+        }
+    }
+}
+
+/// One progress report of a prediction.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PredictProgress {
+    /// The stage.
+    pub stage: PredictStage,
+    /// Objective evaluations so far in the current L-BFGS run (0 at a stage
+    /// boundary). An L-BFGS iteration takes one or a few evaluations.
+    pub evaluations: u64,
+    /// The iteration cap of the current run (the settings' `max_iters`).
+    pub max_iterations: u64,
+}
+
+/// Share of the whole prediction at which each stage begins: start, step 1,
+/// step 2, end. From measured stage times (start 3 ms, step 1 17 ms, step 2
+/// 220 ms: `docs/results/predict-bench.md`), so a progress bar moves evenly.
+const STAGE_SHARES: [f64; 4] = [0.0, 0.02, 0.10, 1.0];
+
+impl PredictProgress {
+    /// An estimate of the share of the prediction done, in `[0, 1]`:
+    /// non-decreasing over the reports of one prediction, 1 at
+    /// [`PredictStage::Done`]. A run's share grows with its evaluations
+    /// (expected about 1.3 per iteration) and stays below the next run's.
+    pub fn fraction(&self) -> f64 {
+        let within = |evals: u64| -> f64 {
+            let expected = 1.3 * self.max_iterations.max(1) as f64;
+            (evals as f64 / expected).min(0.95)
+        };
+        let (lo, hi, run, of) = match self.stage {
+            PredictStage::Start => return 0.0,
+            PredictStage::Done => return 1.0,
+            PredictStage::Step1 { run, of } => (STAGE_SHARES[1], STAGE_SHARES[2], run, of),
+            PredictStage::Step2 { run, of } => (STAGE_SHARES[2], STAGE_SHARES[3], run, of),
+        };
+        let of = of.max(1);
+        let done = (run.min(of - 1) as f64 + within(self.evaluations)) / of as f64;
+        lo + (hi - lo) * done
+    }
+}
+
+/// What an observer asks the prediction to do next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Control {
+    /// Go on.
+    Continue,
+    /// Stop as soon as possible; the prediction returns [`ModelError::Cancelled`].
+    Cancel,
+}
+
+/// Watches a prediction: called at each stage boundary and every
+/// [`OBSERVE_EVERY`] objective evaluations inside the optimisers, on the
+/// thread that runs the prediction. Keep it cheap (set a flag, send on a
+/// channel). Any `Fn(&PredictProgress) -> Control` is an observer.
+pub trait PredictObserver {
+    /// Takes a progress report; returns whether to go on.
+    fn observe(&self, progress: &PredictProgress) -> Control;
+}
+
+impl<F: Fn(&PredictProgress) -> Control> PredictObserver for F {
+    fn observe(&self, progress: &PredictProgress) -> Control {
+        self(progress)
+    }
+}
+
+/// Inside an L-BFGS run the observer is called on the first evaluation and
+/// then every this many (an evaluation of step 2 takes about 1-2 ms).
+pub const OBSERVE_EVERY: u64 = 10;
+
+/// An objective that reports progress and, once cancelled, returns NaN so
+/// the solver ends the run (see the module docs).
+struct Watched<'a> {
+    inner: &'a dyn Objective,
+    observer: &'a dyn PredictObserver,
+    stage: PredictStage,
+    max_iterations: u64,
+    evaluations: Cell<u64>,
+    cancelled: Cell<bool>,
+}
+
+impl<'a> Watched<'a> {
+    fn new(
+        inner: &'a dyn Objective,
+        observer: &'a dyn PredictObserver,
+        stage: PredictStage,
+        max_iterations: u64,
+    ) -> Self {
+        Self {
+            inner,
+            observer,
+            stage,
+            max_iterations,
+            evaluations: Cell::new(0),
+            cancelled: Cell::new(false),
+        }
+    }
+}
+
+impl Objective for Watched<'_> {
+    fn eval(&self, x: &[f64], grad: &mut [f64]) -> f64 {
+        if self.cancelled.get() {
+            grad.fill(f64::NAN);
+            return f64::NAN;
+        }
+        let n = self.evaluations.get();
+        self.evaluations.set(n + 1);
+        if n.is_multiple_of(OBSERVE_EVERY) {
+            let p = PredictProgress {
+                stage: self.stage,
+                evaluations: n,
+                max_iterations: self.max_iterations,
+            };
+            if self.observer.observe(&p) == Control::Cancel {
+                self.cancelled.set(true);
+                grad.fill(f64::NAN);
+                return f64::NAN;
+            }
+        }
+        self.inner.eval(x, grad)
+    }
+}
+
+/// Reports a stage boundary; `Err(Cancelled)` if the observer cancels.
+fn boundary(
+    observer: &dyn PredictObserver,
+    stage: PredictStage,
+    max_iterations: u64,
+) -> Result<()> {
+    let p = PredictProgress {
+        stage,
+        evaluations: 0,
+        max_iterations,
+    };
+    match observer.observe(&p) {
+        Control::Continue => Ok(()),
+        Control::Cancel => Err(ModelError::Cancelled(stage.to_string())),
+    }
+}
+
+/// The observer of [`ShapeModel::predict`]: never cancels.
+fn no_observer(_: &PredictProgress) -> Control {
+    Control::Continue
+}
+
 struct Given {
     index: usize,
     target_mm: f64,
@@ -620,6 +809,22 @@ impl ShapeModel {
         topology: &Topology,
         settings: &PredictSettings,
     ) -> Result<Prediction> {
+        self.predict_observed(targets, measurer, topology, settings, &no_observer)
+    }
+
+    /// [`ShapeModel::predict`] with progress reports and cancelling: the
+    /// `observer` is called at every stage boundary and now and then inside
+    /// the L-BFGS runs (see the module docs). If it answers
+    /// [`Control::Cancel`], returns [`ModelError::Cancelled`] (naming the
+    /// stage) as soon as the current objective evaluation ends.
+    pub fn predict_observed(
+        &self,
+        targets: &[Option<Target>],
+        measurer: &dyn Measurer,
+        topology: &Topology,
+        settings: &PredictSettings,
+        observer: &dyn PredictObserver,
+    ) -> Result<Prediction> {
         let t_total = Instant::now();
         let v = self.n_vertices();
         if topology.n_vertices() != v {
@@ -640,6 +845,7 @@ impl ShapeModel {
         let mut warnings = Vec::new();
 
         // Start.
+        boundary(observer, PredictStage::Start, 0)?;
         let t0 = Instant::now();
         let start_method = if given.len() == self.n_measurements()
             && given
@@ -676,6 +882,11 @@ impl ShapeModel {
         let mut step1_runs = Vec::new();
         let mut w = w_start.clone();
         for round in 0..settings.s {
+            let stage = PredictStage::Step1 {
+                run: round,
+                of: settings.s,
+            };
+            boundary(observer, stage, settings.stop.max_iters)?;
             let (x, meas);
             let (x_ref, meas_ref) = if round == 0 {
                 (&x_start, &meas_start)
@@ -689,7 +900,12 @@ impl ShapeModel {
                 break;
             }
             let obj = self.localise(&terms);
-            match minimise(&obj, w.clone(), &settings.stop, settings.step1_solver) {
+            let watched = Watched::new(&obj, observer, stage, settings.stop.max_iters);
+            let run = minimise(&watched, w.clone(), &settings.stop, settings.step1_solver);
+            if watched.cancelled.get() {
+                return Err(ModelError::Cancelled(stage.to_string()));
+            }
+            match run {
                 Ok((w_new, info)) => {
                     w = w_new;
                     step1_runs.push(info);
@@ -724,6 +940,11 @@ impl ShapeModel {
         let reference_mm = to_mm(&x1);
         let mut x_mm: Vec<f64> = reference_mm.as_flattened().to_vec();
         for round in 0..settings.s {
+            let stage = PredictStage::Step2 {
+                run: round,
+                of: settings.s,
+            };
+            boundary(observer, stage, settings.step2_stop.max_iters)?;
             let p_mm: Vec<Vec3> = x_mm.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
             let meas;
             let meas_ref = if round == 0 {
@@ -742,12 +963,17 @@ impl ShapeModel {
                 reference_mm.as_flattened(),
                 settings.lambda,
             );
-            match minimise(
-                &obj,
+            let watched = Watched::new(&obj, observer, stage, settings.step2_stop.max_iters);
+            let run = minimise(
+                &watched,
                 x_mm.clone(),
                 &settings.step2_stop,
                 settings.step2_solver,
-            ) {
+            );
+            if watched.cancelled.get() {
+                return Err(ModelError::Cancelled(stage.to_string()));
+            }
+            match run {
                 Ok((x_new, info)) => {
                     x_mm = x_new;
                     step2_runs.push(info);
@@ -866,6 +1092,13 @@ impl ShapeModel {
             }
         }
         let time_step2 = t2.elapsed();
+        // Reported last, so an observer's fraction reaches 1; too late to
+        // cancel (the body is ready), so the answer is ignored.
+        let _ = observer.observe(&PredictProgress {
+            stage: PredictStage::Done,
+            evaluations: 0,
+            max_iterations: 0,
+        });
         Ok(Prediction {
             vertices: x2,
             report: PredictionReport {
