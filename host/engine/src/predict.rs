@@ -57,7 +57,8 @@ use tapeshape_measure::{CompiledSet, MeasureError, MeasurementSet, BUILTIN_SETS}
 use tapeshape_mesh::{Anatomy, Mesh, Topology, Vec3};
 pub use tapeshape_model::predict::PredictionReport;
 pub use tapeshape_model::{
-    FitSettings, ModelError, ModelFile, PredictSettings, ShapeModel, Target,
+    Control, FitSettings, ModelError, ModelFile, PredictObserver, PredictProgress, PredictSettings,
+    PredictStage, ShapeModel, Target,
 };
 use tapeshape_model::{MeasurementSetText, Provenance, TemplateInfo};
 
@@ -99,6 +100,10 @@ pub enum PredictError {
     /// Malformed input (syntax, duplicates, files).
     #[error("{0}")]
     Input(String),
+    /// The prediction was cancelled by its observer
+    /// ([`Engine::predict_observed`]); the text names the stage.
+    #[error("estimate cancelled ({0})")]
+    Cancelled(String),
     /// Training failed or was asked for something impossible.
     #[error("training: {0}")]
     Training(String),
@@ -886,6 +891,29 @@ impl Engine {
         inputs: &Inputs,
         settings: &PredictSettings,
     ) -> Result<Estimate, PredictError> {
+        self.predict_observed(inputs, settings, &|_: &PredictProgress| Control::Continue)
+    }
+
+    /// [`Engine::predict`] with progress reports and cancelling (see
+    /// `tapeshape_model::predict`): `observer` is called once before the
+    /// input checks (stage [`PredictStage::Start`]), then by the model at
+    /// every stage boundary and now and then inside its optimisers, on this
+    /// thread. If it answers [`Control::Cancel`], returns
+    /// [`PredictError::Cancelled`] and no body.
+    pub fn predict_observed(
+        &self,
+        inputs: &Inputs,
+        settings: &PredictSettings,
+        observer: &dyn PredictObserver,
+    ) -> Result<Estimate, PredictError> {
+        let before = PredictProgress {
+            stage: PredictStage::Start,
+            evaluations: 0,
+            max_iterations: 0,
+        };
+        if observer.observe(&before) == Control::Cancel {
+            return Err(PredictError::Cancelled("before the input checks".into()));
+        }
         let t0 = Instant::now();
         let (checks, mut warnings) = self.check(inputs)?;
         let check_time = t0.elapsed();
@@ -900,7 +928,11 @@ impl Engine {
         let p = self
             .file
             .model
-            .predict(&targets, &self.compiled, &self.topology, settings)?;
+            .predict_observed(&targets, &self.compiled, &self.topology, settings, observer)
+            .map_err(|e| match e {
+                ModelError::Cancelled(stage) => PredictError::Cancelled(stage),
+                e => PredictError::Model(e),
+            })?;
         let pl = &p.report.plausibility;
         if pl.measurements_label == tapeshape_model::PlausibilityLabel::Unusual {
             warnings.push(format!(
