@@ -4,5 +4,6 @@
 //! (`tapeshape eval NAME --out docs/results/NAME`).
 
 pub mod method;
+pub mod methods;
 
 pub use method::{Method, MethodError, MethodOutput, TrainingData};

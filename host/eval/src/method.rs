@@ -46,6 +46,7 @@ pub enum MethodError {
 }
 
 /// A body predicted by a method.
+#[derive(Debug, Clone)]
 pub struct MethodOutput {
     /// `V` vertices in the template topology, metres, station frame.
     pub vertices: Vec<Vec3>,
