@@ -25,9 +25,9 @@
 //! compiled measurement set, `None` where not given.
 
 mod common;
-
 pub mod paper;
+pub mod rbf;
 
 pub use common::training_weights;
-
 pub use paper::{FeatureAnalysis, Ours, StepOneOnly};
+pub use rbf::{RbfInterpolation, RbfSettings, Width};
