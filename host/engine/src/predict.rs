@@ -399,6 +399,32 @@ pub struct InputCheck {
     pub conditional_z: Option<f64>,
 }
 
+/// Which population a reading's prediction comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Reference {
+    /// Real people: ANSUR II train split (the reading follows an ANSUR column).
+    RealPeople,
+    /// The model's training population (the joint Gaussian of the model).
+    Training,
+}
+
+/// What other readings predict for one measurement ([`Engine::predict_reading`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ReadingPrediction {
+    /// Predicted value, metres.
+    pub mean: f64,
+    /// SD of the prediction with the reading's own error added, metres.
+    pub sd: f64,
+    /// The population the prediction comes from.
+    pub reference: Reference,
+    /// Number of other readings it is conditioned on (0: the marginal).
+    pub conditioned_on: usize,
+    /// The same prediction under the training population (mean, SD with the
+    /// reading's error, metres): [`Engine::check`] refuses a reading only when
+    /// both references find it far off.
+    pub training: (f64, f64),
+}
+
 /// Summary of the model used.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelSummary {
@@ -847,6 +873,76 @@ impl Engine {
             )));
         }
         Ok((checks, warnings))
+    }
+
+    /// What the readings `others` (name, metres; each with its ISO 20685-1
+    /// tolerance as noise, like [`Engine::check`]) predict for measurement
+    /// `name`: the Gaussian conditional of real people (ANSUR II train split)
+    /// given the others that follow an ANSUR column when `name` has one, else
+    /// of the training population (the model's joint Gaussian,
+    /// [`ShapeModel::conditional_measurements`] with reading noise) given all
+    /// others. With no others it is the marginal. The returned SD includes
+    /// `name`'s own tolerance, so with others given `(value - mean) / sd` is
+    /// the conditional z-score [`Engine::check`] computes for that reading
+    /// (its marginal z leaves the tolerance out). Costs one small Cholesky
+    /// per reference (a capture-time check, not the whole set's).
+    ///
+    /// Errors: an unknown name (with suggestions), a non-finite or
+    /// non-positive value among `others`, `name` among `others`.
+    pub fn predict_reading(
+        &self,
+        name: &str,
+        others: &[(&str, f64)],
+    ) -> Result<ReadingPrediction, PredictError> {
+        let j = self.set.index_of(name).ok_or_else(|| self.unknown(name))?;
+        let noise = |k: usize| self.set.definitions[k].tolerance.mm() / 1000.0;
+        let mut observed = Vec::with_capacity(others.len());
+        for &(n, v) in others {
+            let k = self.set.index_of(n).ok_or_else(|| self.unknown(n))?;
+            if k == j {
+                return Err(PredictError::Input(format!(
+                    "'{name}' is both the reading checked and one of the others: give each measurement once"
+                )));
+            }
+            if !(v.is_finite() && v > 0.0) {
+                return Err(PredictError::BadValue(format!(
+                    "{n} is {v} m: a length must be positive and finite"
+                )));
+            }
+            observed.push((k, v, noise(k).powi(2)));
+        }
+        let own = noise(j).powi(2);
+        let cond = self.file.model.joint.conditional(&[j], &observed)?;
+        let training = (cond.mean[0], (cond.cov[(0, 0)].max(0.0) + own).sqrt());
+        let real = self.real.get_or_init(|| RealStats::compute(&self.set));
+        if let Some(r) = real.row[j] {
+            let real_obs: Vec<(usize, f64, f64)> = observed
+                .iter()
+                .filter_map(|&(k, v, n)| real.row[k].map(|rk| (rk, v, n)))
+                .collect();
+            let got = if real_obs.is_empty() {
+                let (m, sd) = real.marginal(r);
+                Some((m, sd * sd))
+            } else {
+                real.conditional(r, &real_obs)
+            };
+            if let Some((mean, var)) = got {
+                return Ok(ReadingPrediction {
+                    mean,
+                    sd: (var + own).sqrt(),
+                    reference: Reference::RealPeople,
+                    conditioned_on: real_obs.len(),
+                    training,
+                });
+            }
+        }
+        Ok(ReadingPrediction {
+            mean: training.0,
+            sd: training.1,
+            reference: Reference::Training,
+            conditioned_on: observed.len(),
+            training,
+        })
     }
 
     fn out_of_range(&self, r: &Input, mean: f64, sd: f64, z: f64) -> String {

@@ -4,10 +4,13 @@
 //!   sequence bookkeeping); durable before anything is acknowledged.
 //! * [`link`]: the serial link to the tape firmware (handshake, acknowledgement
 //!   after commit, reconnection).
+//! * [`check`]: each captured reading against what the readings already
+//!   taken predict (conditional z-score, unit slips).
 //! * [`tui`]: the kiosk terminal interface (screens, operator flow).
 //! * [`cli`]: the subcommands of the `tapeshape` binary (src/main.rs is a
 //!   thin dispatcher over them).
 
+pub mod check;
 pub mod cli;
 pub mod link;
 pub mod store;
