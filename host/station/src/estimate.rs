@@ -1,0 +1,735 @@
+//! Estimating a customer's body off the interface thread, and exporting it.
+//!
+//! Why a thread and a channel: an estimate takes a fraction of a second to a
+//! few seconds (more on a loaded kiosk), and the terminal interface must keep
+//! drawing, reading keys and talking to the tape meanwhile. [`start_estimate`]
+//! runs [`Engine::predict_observed`] on its own thread; the interface polls
+//! [`EstimateJob::progress`] for stage and fraction and may
+//! [`EstimateJob::cancel`] at any time (the engine stops within one objective
+//! evaluation, a few milliseconds). The channel is `std::sync::mpsc`, so a
+//! caller needs no async runtime.
+//!
+//! [`export`] writes the body as OBJ / PLY (station frame: Z up, +Y front,
+//! +X the body's right, metres) and GLB (glTF's Y-up frame, metres, converted
+//! by `tapeshape_mesh::io`), plus a JSON report of the session (customer,
+//! session, set, each reading's target / achieved / error in mm, the
+//! capture-time check, plausibility, warnings, model, timings, and the units
+//! and frames stated), each written to a temporary name and renamed.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, Receiver, TryRecvError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use serde::Serialize;
+use tapeshape_engine::predict::{
+    Control, Engine, Estimate, EstimateReport, Input, Inputs, Length, ModelSummary, PredictError,
+    PredictProgress, PredictSettings, PredictStage, Unit,
+};
+use tapeshape_mesh::io::{write_atomic, write_glb, write_obj, write_ply, PlyPrecision};
+
+/// One reading to estimate from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reading {
+    /// Measurement name (as in the model's sets).
+    pub name: String,
+    /// Value, metres.
+    pub metres: f64,
+    /// Standard uncertainty, metres (`None`: the measurement's own class).
+    pub tolerance: Option<f64>,
+}
+
+impl Reading {
+    /// A reading without a stated tolerance.
+    pub fn new(name: impl Into<String>, metres: f64) -> Self {
+        Self {
+            name: name.into(),
+            metres,
+            tolerance: None,
+        }
+    }
+}
+
+/// A progress report of a running estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Progress {
+    /// The stage (start, step 1 round k of s, step 2 round k of s, done).
+    pub stage: PredictStage,
+    /// Share of the estimate done, 0 to 1, non-decreasing over one job.
+    pub fraction: f64,
+}
+
+/// Why an estimate produced no body.
+#[derive(Debug, thiserror::Error)]
+pub enum EstimateError {
+    /// The operator cancelled it.
+    #[error("estimate cancelled ({0})")]
+    Cancelled(String),
+    /// The engine refused the readings or failed; the message says why and
+    /// what to do.
+    #[error(transparent)]
+    Predict(PredictError),
+    /// The estimating thread died (a bug): the readings are untouched.
+    #[error("the estimate failed unexpectedly ({0}); the readings are kept, try again")]
+    Panicked(String),
+}
+
+impl From<PredictError> for EstimateError {
+    fn from(e: PredictError) -> Self {
+        match e {
+            PredictError::Cancelled(s) => Self::Cancelled(s),
+            e => Self::Predict(e),
+        }
+    }
+}
+
+/// Asks a running estimate to stop; cloneable, usable from any thread.
+#[derive(Debug, Clone, Default)]
+pub struct CancelHandle(Arc<AtomicBool>);
+
+impl CancelHandle {
+    /// Asks the estimate to stop (it then ends with [`EstimateError::Cancelled`]).
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::SeqCst);
+    }
+
+    /// Whether cancelling was asked for.
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::SeqCst)
+    }
+}
+
+/// A running estimate (see the module docs).
+#[derive(Debug)]
+pub struct EstimateJob {
+    progress: Receiver<Progress>,
+    cancel: CancelHandle,
+    thread: Option<JoinHandle<Result<Estimate, EstimateError>>>,
+}
+
+/// Progress reports closer than this in fraction are merged (a stage change
+/// is always reported), so the channel carries a few hundred at most.
+const MIN_STEP: f64 = 0.005;
+
+/// Starts estimating a body from `readings` on a new thread with the
+/// paper's `settings`. `engine` is any shared handle to an engine
+/// (`Engine::default_model()` gives a `&'static Engine`; an `Arc<Engine>`
+/// works too).
+///
+/// The readings are checked before the thread starts (so a typo fails at
+/// once): a name given twice, or a value or tolerance that is not a positive
+/// finite length, is an error; the engine's own checks (unknown names, unit
+/// slips, contradictions) run on the thread and end the job with
+/// [`EstimateError::Predict`].
+pub fn start_estimate<E>(
+    engine: E,
+    readings: &[Reading],
+    settings: &PredictSettings,
+) -> Result<EstimateJob, EstimateError>
+where
+    E: std::ops::Deref<Target = Engine> + Send + 'static,
+{
+    let inputs = to_inputs(readings)?;
+    let settings = settings.clone();
+    let (tx, rx) = mpsc::channel();
+    let cancel = CancelHandle::default();
+    let flag = cancel.clone();
+    let thread = std::thread::Builder::new()
+        .name("tapeshape-estimate".into())
+        .spawn(move || {
+            let last: std::cell::Cell<Option<Progress>> = std::cell::Cell::new(None);
+            let observer = |p: &PredictProgress| {
+                if flag.is_cancelled() {
+                    return Control::Cancel;
+                }
+                let now = Progress {
+                    stage: p.stage,
+                    fraction: p.fraction(),
+                };
+                let send = match last.get() {
+                    None => true,
+                    Some(prev) => {
+                        prev.stage != now.stage || now.fraction - prev.fraction >= MIN_STEP
+                    }
+                };
+                if send {
+                    last.set(Some(now));
+                    // A receiver that went away just stops listening.
+                    let _ = tx.send(now);
+                }
+                Control::Continue
+            };
+            Ok(engine.predict_observed(&inputs, &settings, &observer)?)
+        })
+        .map_err(|e| EstimateError::Panicked(format!("could not start a thread: {e}")))?;
+    Ok(EstimateJob {
+        progress: rx,
+        cancel,
+        thread: Some(thread),
+    })
+}
+
+fn to_inputs(readings: &[Reading]) -> Result<Inputs, EstimateError> {
+    let mut inputs = Inputs::new();
+    for r in readings {
+        if !(r.metres.is_finite() && r.metres > 0.0) {
+            return Err(PredictError::BadValue(format!(
+                "{} is {} m: a length must be positive and finite; measure it again",
+                r.name, r.metres
+            ))
+            .into());
+        }
+        if let Some(t) = r.tolerance {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(PredictError::BadValue(format!(
+                    "the tolerance of {} is {t} m: it must be a positive length",
+                    r.name
+                ))
+                .into());
+            }
+        }
+        inputs.push(Input {
+            name: r.name.clone(),
+            value: Length {
+                metres: r.metres,
+                unit: Unit::Cm,
+                unit_typed: true,
+                number: r.metres * 100.0,
+            },
+            tolerance: r.tolerance,
+        })?;
+    }
+    Ok(inputs)
+}
+
+impl EstimateJob {
+    /// The progress reports that arrived since the last call (non-blocking).
+    pub fn progress(&self) -> Vec<Progress> {
+        let mut out = Vec::new();
+        loop {
+            match self.progress.try_recv() {
+                Ok(p) => out.push(p),
+                Err(TryRecvError::Empty | TryRecvError::Disconnected) => return out,
+            }
+        }
+    }
+
+    /// Waits up to `timeout` for the next progress report; `None` when none
+    /// came (or the job has ended and every report was taken).
+    pub fn next_progress(&self, timeout: Duration) -> Option<Progress> {
+        self.progress.recv_timeout(timeout).ok()
+    }
+
+    /// A handle that cancels this job from anywhere.
+    pub fn cancel_handle(&self) -> CancelHandle {
+        self.cancel.clone()
+    }
+
+    /// Asks the job to stop; [`EstimateJob::wait`] then returns
+    /// [`EstimateError::Cancelled`] (unless the body was already done).
+    pub fn cancel(&self) {
+        self.cancel.cancel();
+    }
+
+    /// Whether the thread has finished (the result is ready).
+    pub fn is_finished(&self) -> bool {
+        self.thread.as_ref().is_none_or(JoinHandle::is_finished)
+    }
+
+    /// Waits for the result.
+    pub fn wait(mut self) -> Result<Estimate, EstimateError> {
+        let Some(thread) = self.thread.take() else {
+            return Err(EstimateError::Panicked(
+                "the result was already taken".into(),
+            ));
+        };
+        match thread.join() {
+            Ok(r) => r,
+            Err(panic) => Err(EstimateError::Panicked(
+                panic
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| panic.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "panic".into()),
+            )),
+        }
+    }
+}
+
+impl Drop for EstimateJob {
+    /// A job dropped unfinished is cancelled (its thread ends on its own).
+    fn drop(&mut self) {
+        if self.thread.is_some() {
+            self.cancel.cancel();
+        }
+    }
+}
+
+/// A mesh format [`export`] writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+pub enum MeshFormat {
+    /// Wavefront OBJ (station frame, metres).
+    Obj,
+    /// Binary PLY, f64 coordinates (station frame, metres).
+    Ply,
+    /// Binary glTF 2.0 (glTF frame: Y up, +Z front, metres).
+    Glb,
+}
+
+impl MeshFormat {
+    /// Every format.
+    pub const ALL: [MeshFormat; 3] = [MeshFormat::Obj, MeshFormat::Ply, MeshFormat::Glb];
+
+    /// File extension.
+    pub fn ext(self) -> &'static str {
+        match self {
+            MeshFormat::Obj => "obj",
+            MeshFormat::Ply => "ply",
+            MeshFormat::Glb => "glb",
+        }
+    }
+}
+
+/// Who and what an export is for (goes into the report and file names).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SessionInfo {
+    /// Opaque customer id.
+    pub customer_id: String,
+    /// Session id in the store.
+    pub session_id: i64,
+    /// Measurement set of the session.
+    pub set: String,
+    /// When the export was made, ms since the Unix epoch (UTC).
+    pub exported_at_ms: i64,
+}
+
+/// Why an export failed; nothing half-written is left under a final name.
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    /// The folder could not be created.
+    #[error("cannot create the export folder {path}: {source}; choose another folder")]
+    Folder {
+        /// The folder.
+        path: PathBuf,
+        /// The error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Writing a mesh or the report failed.
+    #[error("writing {path}: {message}")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// One given measurement in the report (millimetres).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReportMeasurement {
+    /// Measurement name.
+    pub name: String,
+    /// The reading, mm.
+    pub target_mm: f64,
+    /// Its tolerance, mm (if one was given).
+    pub tolerance_mm: Option<f64>,
+    /// Measured on the estimated body, mm.
+    pub achieved_mm: Option<f64>,
+    /// `achieved - target`, mm.
+    pub error_mm: Option<f64>,
+    /// What the other readings predicted for it, mm.
+    pub predicted_mm: Option<f64>,
+    /// SD of that prediction, mm.
+    pub predicted_sd_mm: Option<f64>,
+    /// `(reading - predicted) / sd`.
+    pub conditional_z: Option<f64>,
+}
+
+/// The plausibility part of the report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReportPlausibility {
+    /// "Typical", "Unusual" or "Implausible" for the readings.
+    pub readings: String,
+    /// Mahalanobis distance of the readings.
+    pub readings_mahalanobis: f64,
+    /// Its chi-square quantile.
+    pub readings_quantile: f64,
+    /// The same for the body's shape weights.
+    pub shape: String,
+    /// Mahalanobis distance of the shape weights.
+    pub shape_mahalanobis: f64,
+    /// RMS distance of the body from the learned shape space, mm.
+    pub out_of_space_rms_mm: f64,
+}
+
+/// Stage timings, milliseconds.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReportTimings {
+    /// Input checks.
+    pub check_ms: f64,
+    /// Start weights.
+    pub start_ms: f64,
+    /// Step 1.
+    pub step1_ms: f64,
+    /// Step 2.
+    pub step2_ms: f64,
+    /// Prediction total (checks excluded).
+    pub total_ms: f64,
+}
+
+/// The JSON report [`export`] writes.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ExportReport {
+    /// Always "tapeshape estimate report".
+    pub format: &'static str,
+    /// Report format version (1).
+    pub version: u32,
+    /// Units of every number and file.
+    pub units: &'static str,
+    /// Coordinate frames of the mesh files.
+    pub frames: &'static str,
+    /// The session.
+    pub session: SessionInfo,
+    /// Each reading given, in the model's order.
+    pub measurements: Vec<ReportMeasurement>,
+    /// The set's other measurements, measured on the body (name, mm).
+    pub measured_not_given: Vec<(String, f64)>,
+    /// Plausibility of the readings and the body.
+    pub plausibility: ReportPlausibility,
+    /// Everything the operator or an engineer should know.
+    pub warnings: Vec<String>,
+    /// The model used.
+    pub model: ModelSummary,
+    /// Stage timings.
+    pub timings: ReportTimings,
+    /// Mesh vertices and triangles.
+    pub mesh: (usize, usize),
+    /// The files written with this report (names, same folder).
+    pub files: Vec<String>,
+    /// The engine's full report (stage values, L-BFGS runs, settings).
+    pub engine: EstimateReport,
+}
+
+/// Builds the report of `estimate` for `session` (listing `files`).
+pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) -> ExportReport {
+    let r = &estimate.report;
+    let p = &r.prediction;
+    let checks = |name: &str| r.inputs.iter().find(|c| c.name == name);
+    let measurements = p
+        .measurements
+        .iter()
+        .filter_map(|m| {
+            let target = m.target_mm?;
+            let c = checks(&m.name);
+            Some(ReportMeasurement {
+                name: m.name.clone(),
+                target_mm: target,
+                tolerance_mm: m.tolerance_mm,
+                achieved_mm: m.step2_mm,
+                error_mm: m.step2_mm.map(|a| a - target),
+                predicted_mm: c.and_then(|c| c.predicted_mm),
+                predicted_sd_mm: c.and_then(|c| c.predicted_sd_mm),
+                conditional_z: c.and_then(|c| c.conditional_z),
+            })
+        })
+        .collect();
+    let measured_not_given = p
+        .measurements
+        .iter()
+        .filter(|m| m.target_mm.is_none())
+        .filter_map(|m| Some((m.name.clone(), m.step2_mm?)))
+        .collect();
+    let pl = &p.plausibility;
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    ExportReport {
+        format: "tapeshape estimate report",
+        version: 1,
+        units: "lengths in the report in millimetres (mm); mesh coordinates in metres; times in milliseconds",
+        frames: "OBJ and PLY: station frame, Z up, +Y = the body's front, +X = the body's right, feet at z = 0; GLB: glTF frame, +Y up, +Z = the body's front, converted by (x, y, z) -> (-x, z, y)",
+        session: session.clone(),
+        measurements,
+        measured_not_given,
+        plausibility: ReportPlausibility {
+            readings: format!("{:?}", pl.measurements_label),
+            readings_mahalanobis: pl.measurements_mahalanobis,
+            readings_quantile: pl.measurements_quantile,
+            shape: format!("{:?}", pl.label),
+            shape_mahalanobis: pl.mahalanobis,
+            out_of_space_rms_mm: pl.out_of_space_rms_mm,
+        },
+        warnings: r.warnings.clone(),
+        model: r.model.clone(),
+        timings: ReportTimings {
+            check_ms: ms(r.check_time),
+            start_ms: ms(p.timings.start),
+            step1_ms: ms(p.timings.step1),
+            step2_ms: ms(p.timings.step2),
+            total_ms: ms(p.timings.total),
+        },
+        mesh: (
+            estimate.mesh.vertices.len(),
+            estimate.mesh.faces().len(),
+        ),
+        files,
+        engine: r.clone(),
+    }
+}
+
+/// The file-name stem of an export: `<customer>-session<id>`, the customer
+/// id reduced to letters, digits, `-` and `_` (an opaque id may hold
+/// anything, a file name may not).
+pub fn file_stem(session: &SessionInfo) -> String {
+    let customer: String = session
+        .customer_id
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .take(64)
+        .collect();
+    let customer = if customer.is_empty() {
+        "customer".to_string()
+    } else {
+        customer
+    };
+    format!("{customer}-session{}", session.session_id)
+}
+
+/// Writes `estimate` into `folder` (created if missing) in each of
+/// `formats`, then the JSON report (always, last). Every file is written to
+/// a temporary name and renamed; an existing export of the same session is
+/// replaced. Returns the paths written, meshes in the order of `formats`,
+/// the report last.
+pub fn export(
+    estimate: &Estimate,
+    session: &SessionInfo,
+    folder: &Path,
+    formats: &[MeshFormat],
+) -> Result<Vec<PathBuf>, ExportError> {
+    std::fs::create_dir_all(folder).map_err(|source| ExportError::Folder {
+        path: folder.to_path_buf(),
+        source,
+    })?;
+    let stem = file_stem(session);
+    let mut formats = formats.to_vec();
+    formats.dedup();
+    let mut written = Vec::new();
+    for f in formats {
+        let path = folder.join(format!("{stem}.{}", f.ext()));
+        let r = match f {
+            MeshFormat::Obj => write_obj(&estimate.mesh, &path),
+            MeshFormat::Ply => write_ply(&estimate.mesh, &path, PlyPrecision::F64),
+            MeshFormat::Glb => write_glb(&estimate.mesh, &path),
+        };
+        r.map_err(|e| ExportError::Write {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        written.push(path);
+    }
+    let report_path = folder.join(format!("{stem}-report.json"));
+    let names = written
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    let json = serde_json::to_vec_pretty(&report(estimate, session, names)).map_err(|e| {
+        ExportError::Write {
+            path: report_path.clone(),
+            message: e.to_string(),
+        }
+    })?;
+    write_atomic(&report_path, &json).map_err(|e| ExportError::Write {
+        path: report_path.clone(),
+        message: e.to_string(),
+    })?;
+    written.push(report_path);
+    Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tapeshape_mesh::io::ReadOptions;
+
+    fn engine() -> &'static Engine {
+        Engine::default_model().expect("embedded model")
+    }
+
+    fn readings() -> Vec<Reading> {
+        vec![
+            Reading::new("stature", 1.76),
+            Reading::new("chest", 0.98),
+            Reading::new("waist", 0.84),
+            Reading::new("hip", 1.00),
+        ]
+    }
+
+    #[test]
+    fn a_job_reports_monotone_progress_and_returns_the_engines_body() {
+        let e = engine();
+        let settings = PredictSettings::default();
+        let job = start_estimate(e, &readings(), &settings).unwrap();
+        let mut seen = Vec::new();
+        while !job.is_finished() {
+            seen.extend(job.next_progress(Duration::from_millis(50)));
+        }
+        seen.extend(job.progress());
+        let est = job.wait().unwrap();
+        assert!(!seen.is_empty());
+        for w in seen.windows(2) {
+            assert!(w[1].fraction >= w[0].fraction, "{seen:?}");
+        }
+        assert_eq!(seen.last().unwrap().stage, PredictStage::Done);
+        assert_eq!(seen.last().unwrap().fraction, 1.0);
+        assert!(seen
+            .iter()
+            .any(|p| matches!(p.stage, PredictStage::Step2 { .. })));
+        // The same body as a direct prediction (the job adds nothing).
+        let inputs = to_inputs(&readings()).unwrap();
+        let direct = e.predict(&inputs, &settings).unwrap();
+        assert_eq!(direct.mesh.vertices, est.mesh.vertices);
+    }
+
+    #[test]
+    fn cancelling_ends_the_job_with_cancelled() {
+        let e = engine();
+        // Cancel before it starts: the engine stops at its first report.
+        let job = start_estimate(e, &readings(), &PredictSettings::default()).unwrap();
+        job.cancel();
+        assert!(matches!(job.wait(), Err(EstimateError::Cancelled(_))));
+        // Cancel from another handle once step 2 is under way.
+        let job = start_estimate(e, &readings(), &PredictSettings::default()).unwrap();
+        let handle = job.cancel_handle();
+        let mut cancelled_at = None;
+        while let Some(p) = job.next_progress(Duration::from_secs(30)) {
+            if matches!(p.stage, PredictStage::Step2 { .. }) {
+                handle.cancel();
+                cancelled_at = Some(p);
+                break;
+            }
+        }
+        assert!(cancelled_at.is_some(), "never reached step 2");
+        match job.wait() {
+            Err(EstimateError::Cancelled(stage)) => assert!(stage.starts_with("step 2"), "{stage}"),
+            other => panic!("expected Cancelled, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn bad_readings_fail_before_or_inside_the_job_with_a_clear_error() {
+        let e = engine();
+        let s = PredictSettings::default();
+        let mut twice = readings();
+        twice.push(Reading::new("chest", 0.99));
+        let err = start_estimate(e, &twice, &s).unwrap_err();
+        assert!(err.to_string().contains("given twice"), "{err}");
+        let mut neg = readings();
+        neg[1].metres = -0.98;
+        assert!(matches!(
+            start_estimate(e, &neg, &s),
+            Err(EstimateError::Predict(PredictError::BadValue(_)))
+        ));
+        let mut typo = readings();
+        typo[1].name = "chets".into();
+        let err = start_estimate(e, &typo, &s).unwrap().wait().unwrap_err();
+        assert!(err.to_string().contains("did you mean chest"), "{err}");
+    }
+
+    #[test]
+    fn export_writes_every_format_and_a_report_that_reads_back() {
+        let e = engine();
+        let inputs = to_inputs(&readings()).unwrap();
+        let est = e.predict(&inputs, &PredictSettings::default()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let folder = dir.path().join("out/nested");
+        let session = SessionInfo {
+            customer_id: "C-42/../x y".into(),
+            session_id: 7,
+            set: "quick".into(),
+            exported_at_ms: 1_700_000_000_000,
+        };
+        let files = export(&est, &session, &folder, &MeshFormat::ALL).unwrap();
+        let names: Vec<String> = files
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "C-42____x_y-session7.obj",
+                "C-42____x_y-session7.ply",
+                "C-42____x_y-session7.glb",
+                "C-42____x_y-session7-report.json"
+            ]
+        );
+        // Nothing else (no temporary files) is left in the folder.
+        assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 4);
+        let obj = tapeshape_mesh::io::read_obj(&files[0], ReadOptions::default()).unwrap();
+        let ply = tapeshape_mesh::io::read_ply(&files[1], ReadOptions::default()).unwrap();
+        assert_eq!(ply.vertices, est.mesh.vertices, "PLY f64 is exact");
+        assert_eq!(obj.faces(), est.mesh.faces());
+        for (a, b) in obj.vertices.iter().zip(&est.mesh.vertices) {
+            for k in 0..3 {
+                assert!((a[k] - b[k]).abs() < 1e-6);
+            }
+        }
+        let glb = std::fs::read(&files[2]).unwrap();
+        assert_eq!(&glb[..4], b"glTF");
+        assert_eq!(
+            u32::from_le_bytes(glb[8..12].try_into().unwrap()) as usize,
+            glb.len()
+        );
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&files[3]).unwrap()).unwrap();
+        assert_eq!(json["session"]["customer_id"], "C-42/../x y");
+        assert_eq!(json["session"]["session_id"], 7);
+        assert_eq!(json["session"]["set"], "quick");
+        let ms = json["measurements"].as_array().unwrap();
+        assert_eq!(ms.len(), 4);
+        for m in ms {
+            let name = m["name"].as_str().unwrap();
+            let given = readings().into_iter().find(|r| r.name == name).unwrap();
+            let target = m["target_mm"].as_f64().unwrap();
+            assert!((target - given.metres * 1000.0).abs() < 1e-9);
+            let achieved = m["achieved_mm"].as_f64().unwrap();
+            let err = m["error_mm"].as_f64().unwrap();
+            assert!((achieved - target - err).abs() < 1e-9);
+            // The paper's method fits what was given to well under a millimetre.
+            assert!(err.abs() < 1.0, "{name}: error {err} mm");
+        }
+        assert!(json["units"].as_str().unwrap().contains("millimetres"));
+        assert!(json["frames"].as_str().unwrap().contains("Z up"));
+        assert!(json["plausibility"]["readings"].is_string());
+        assert!(json["timings"]["total_ms"].as_f64().unwrap() > 0.0);
+        assert_eq!(json["files"].as_array().unwrap().len(), 3);
+        // Exporting again replaces the files (same names, still 4).
+        export(&est, &session, &folder, &[MeshFormat::Glb]).unwrap();
+        assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 4);
+    }
+
+    #[test]
+    fn an_unwritable_folder_is_a_clear_error() {
+        let e = engine();
+        let inputs = to_inputs(&readings()).unwrap();
+        let est = e.predict(&inputs, &PredictSettings::default()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("a-file");
+        std::fs::write(&file, b"x").unwrap();
+        let session = SessionInfo {
+            customer_id: String::new(),
+            session_id: 1,
+            set: "quick".into(),
+            exported_at_ms: 0,
+        };
+        let err = export(&est, &session, &file.join("sub"), &[MeshFormat::Obj]).unwrap_err();
+        assert!(matches!(err, ExportError::Folder { .. }), "{err}");
+        assert!(err.to_string().contains("choose another folder"));
+    }
+}
