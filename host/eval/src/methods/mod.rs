@@ -27,7 +27,9 @@
 mod common;
 pub mod paper;
 pub mod rbf;
+pub mod sgplvm;
 
 pub use common::training_weights;
 pub use paper::{FeatureAnalysis, Ours, StepOneOnly};
 pub use rbf::{RbfInterpolation, RbfSettings, Width};
+pub use sgplvm::{Sgplvm, SgplvmSettings};
