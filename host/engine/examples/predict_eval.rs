@@ -140,6 +140,21 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             .iter()
             .map(|n| engine.set().index_of(n).expect("member"))
             .collect();
+        // The floor: no method restricted to the PCA space gets closer to a held-out body
+        // than its orthogonal projection onto that space.
+        let pca = &engine.file().model.pca;
+        let floor: Vec<f64> = (0..n)
+            .map(|i| {
+                let flat: Vec<f64> = heldout.bodies[i].iter().flatten().copied().collect();
+                let back = pca.reconstruct(&pca.project(&flat));
+                let back: Vec<Vec3> = back.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
+                vertex_distance_mm(&back, &heldout.bodies[i])
+            })
+            .collect();
+        println!(
+            "| {label} | projection of the true body onto the PCA space (floor of step 1) | | | | | {:.2} | | | |",
+            mean(&floor)
+        );
         for (method, s) in [
             ("feature analysis alone (start)", 0usize),
             ("full (start + steps 1, 2)", 3),
@@ -149,6 +164,7 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 ..PredictSettings::default()
             };
             let (mut eu, mut ci, mut lo, mut vd, mut tt) = (vec![], vec![], vec![], vec![], vec![]);
+            let mut vd1 = vec![];
             let (mut flipped, mut degenerate) = (0, 0);
             let (mut own_flipped, mut own_degenerate, mut truth_vs_mean) = (0, 0, 0);
             let mean_shape = engine
@@ -182,6 +198,10 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 ci.extend(b);
                 lo.extend(c);
                 vd.push(vertex_distance_mm(&est.mesh.vertices, body));
+                if s > 0 {
+                    let w1 = &est.report.prediction.weights_step1;
+                    vd1.push(vertex_distance_mm(&engine.file().model.shape(w1)?, body));
+                }
                 let (f, d) = tapeshape_model::predict::triangle_changes(
                     engine.topology(),
                     body,
@@ -209,6 +229,12 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 mean(&vd),
                 mean(&tt)
             );
+            if !vd1.is_empty() {
+                println!(
+                    "| {label} | step-1 shape of the full run (inside the PCA space) | | | | | {:.2} | | | |",
+                    mean(&vd1)
+                );
+            }
         }
     }
     Ok(())
