@@ -25,11 +25,13 @@
 //! compiled measurement set, `None` where not given.
 
 mod common;
+pub mod generator;
 pub mod paper;
 pub mod rbf;
 pub mod sgplvm;
 
 pub use common::training_weights;
+pub use generator::{GeneratorFit, GeneratorFitSettings, GeneratorSolution};
 pub use paper::{FeatureAnalysis, Ours, StepOneOnly};
 pub use rbf::{RbfInterpolation, RbfSettings, Width};
 pub use sgplvm::{Sgplvm, SgplvmSettings};
