@@ -1,13 +1,18 @@
-//! `tapeshape demo`: the whole data path on one machine, no hardware.
+//! `tapeshape demo`: the whole station on one machine, no hardware.
 //!
-//! Why: an engineer (or a CI job) must be able to see the station record a
-//! session without a tape or a board. The demo starts the firmware logic on
-//! the host between two pseudo-terminals (`tapeshape_sim::harness`, the very
+//! Why: an engineer, a visitor or a CI job must be able to see the station
+//! work without a tape or a board. The demo starts the firmware logic on the
+//! host between two pseudo-terminals (`tapeshape_sim::harness`, the very
 //! `run` function the boards run), plays a simulated tape into the
 //! firmware's tape port (`tapeshape_sim::tape`: live lines while the tape is
-//! pulled, a hold per measurement), runs the station's own link and store on
-//! the firmware's host port exactly as `tapeshape station` does, and prints
-//! the stored session.
+//! pulled, a hold per measurement), and runs the station's own link and store
+//! on the firmware's host port exactly as `tapeshape station` does.
+//!
+//! In a terminal it runs the kiosk interface ([`crate::tui`]) with a
+//! simulated operator that measures, estimates and exports by itself; any
+//! key takes over. With `--headless`, or when stdout is not a terminal (CI,
+//! a pipe), it records the session in line mode, prints it, estimates the
+//! body and prints the result's summary.
 //!
 //! The customer: an ANSUR II **test-split** subject (id divisible by 4, never
 //! used to train or fit anything), chosen by `--seed`; the simulated operator
@@ -15,6 +20,7 @@
 //! to an ANSUR column (all of `quick` and `ansur`). A set without such a
 //! mapping (e.g. `paper34`) falls back to synthetic lengths, and says so.
 
+use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{bail, Context as _};
@@ -41,9 +47,24 @@ pub struct Args {
     #[arg(long, default_value_t = 10.0)]
     pub speedup: f64,
 
-    /// Give up if the session is not complete after this many seconds.
+    /// Give up if the session is not complete after this many seconds
+    /// (headless mode).
     #[arg(long, default_value_t = 60)]
     pub timeout_s: u64,
+
+    /// No interface: record, print the session and the estimate's summary
+    /// (the default when stdout is not a terminal).
+    #[arg(long)]
+    pub headless: bool,
+
+    /// Interface without colours (also when NO_COLOR is set).
+    #[arg(long)]
+    pub mono: bool,
+
+    /// Folder for exported bodies and reports [default: DATA_DIR/exports;
+    /// headless: no export unless given].
+    #[arg(long, value_name = "DIR")]
+    pub export_dir: Option<PathBuf>,
 }
 
 /// Runs the demo. The session goes to the data directory if one is given
@@ -69,6 +90,12 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
             "demo store {} (temporary; pass --data-dir DIR to keep the session)",
             store.path().display()
         );
+    }
+    use std::io::IsTerminal as _;
+    let interactive =
+        !args.headless && std::io::stdout().is_terminal() && std::io::stdin().is_terminal();
+    if interactive {
+        return run_interactive(&args, global, store, temp.as_ref().map(|t| t.path()));
     }
     let (script, customer) = demo_script(&set, args.seed)?;
     println!("demo customer: {customer}");
@@ -123,57 +150,248 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         }
     })?;
     println!();
-    print!(
-        "{}",
-        crate::cli::session::render(&store.open_session(session.id)?)
+    let detail = store.open_session(session.id)?;
+    print!("{}", crate::cli::session::render(&detail));
+    println!();
+    headless_estimate(&detail, args.export_dir.as_deref())
+}
+
+/// Estimates the body from a recorded session with the station's services
+/// and prints the interface's result table; exports into `export` if given.
+fn headless_estimate(
+    detail: &crate::store::SessionDetail,
+    export: Option<&std::path::Path>,
+) -> anyhow::Result<()> {
+    use crate::tui::services::{EstimateEvent, EstimateJob, Services as _};
+    let services = crate::tui::wiring::StationServices::new();
+    let job = EstimateJob {
+        session: detail.session.id,
+        readings: detail
+            .current_readings()
+            .map(|r| (r.measurement.clone(), r.value_mm()))
+            .collect(),
+    };
+    let (tx, rx) = std::sync::mpsc::channel();
+    let _cancel = services.start_estimate(
+        job,
+        Box::new(move |ev| {
+            let _ = tx.send(ev);
+        }),
     );
+    let summary = loop {
+        match rx.recv_timeout(Duration::from_secs(120)) {
+            Ok(EstimateEvent::Stage { .. }) => {}
+            Ok(EstimateEvent::Done(s)) => break s,
+            Ok(EstimateEvent::Failed(e)) => bail!("the estimate was refused: {e}"),
+            Ok(EstimateEvent::Cancelled) => bail!("the estimate was cancelled"),
+            Err(_) => bail!("the estimate did not finish within 120 s"),
+        }
+    };
+    println!(
+        "estimate: {} readings in {:.2} s; plausibility: {}",
+        summary.rows.len(),
+        summary.seconds,
+        summary.plausibility
+    );
+    println!(
+        "{:<34} {:>9} {:>9} {:>7}",
+        "measurement (cm)", "target", "body", "error"
+    );
+    for r in &summary.rows {
+        println!(
+            "{:<34} {:>9.1} {:>9.1} {:>+7.2}",
+            r.name,
+            r.target_mm / 10.0,
+            r.achieved_mm / 10.0,
+            (r.achieved_mm - r.target_mm) / 10.0
+        );
+    }
+    for w in &summary.warnings {
+        println!("warning: {w}");
+    }
+    if let Some(dir) = export {
+        use crate::tui::services::ExportFormat;
+        let mut files = Vec::new();
+        for f in [ExportFormat::Glb, ExportFormat::Obj, ExportFormat::Ply] {
+            files.extend(
+                services
+                    .export(&detail.session, f, dir)
+                    .map_err(anyhow::Error::msg)?,
+            );
+        }
+        files.sort();
+        files.dedup();
+        for f in files {
+            println!("exported {}", f.display());
+        }
+    }
     Ok(())
 }
 
-/// The simulated operator's tape script for `set` and a line describing the
-/// customer. Every entry with an ANSUR column gets the real value of the
-/// ANSUR II test-split subject number `seed` (modulo the split's size), pulled
-/// out over 1.5 s (script time) and held; if any entry has no ANSUR column,
-/// the whole script falls back to seeded synthetic lengths of 30-120 cm.
-pub fn demo_script(
+/// The demo in the kiosk interface, driven by the simulated operator until a
+/// key is pressed.
+fn run_interactive(
+    args: &Args,
+    global: &Global,
+    store: Store,
+    temp: Option<&std::path::Path>,
+) -> anyhow::Result<()> {
+    use crate::tui::app::Sex;
+    use crate::tui::operator::{SimOperator, SimTape};
+    let set = tapeshape_measure::MeasurementSet::load(&args.measurement_set)?;
+    let customer = demo_customer(&set, args.seed)?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    let _enter = runtime.enter();
+    let harness = FirmwareHarness::start(HarnessConfig::fast(0x7a9e_da70_0000_0001, boot_id()))
+        .context("starting the simulated tape firmware")?;
+    let tape_port = TtyStream::open_path(harness.tape_path())
+        .with_context(|| format!("opening {}", harness.tape_path().display()))?;
+    let tape = SimTape::start(
+        tape_port,
+        customer.values.into_iter().collect(),
+        args.speedup,
+    );
+    let sex = match customer.sex {
+        Some(tapeshape_engine::ansur::Sex::Female) => Sex::Female,
+        Some(tapeshape_engine::ansur::Sex::Male) => Sex::Male,
+        None => Sex::Unspecified,
+    };
+    let pace = Duration::from_secs_f64((4.0 / args.speedup).clamp(0.15, 2.0));
+    let operator = SimOperator::new(sex, pace);
+    let export_dir = match (&args.export_dir, temp) {
+        (Some(d), _) => d.clone(),
+        (None, Some(t)) => t.join("exports"),
+        (None, None) => crate::store::resolve_data_dir(global.data_dir.as_deref())?.join("exports"),
+    };
+    let options = crate::tui::runner::RunOptions {
+        store: store.clone(),
+        port: harness.host_path().to_path_buf(),
+        port_label: format!("simulated tape ({})", harness.host_path().display()),
+        baud: 115_200,
+        mono: crate::cli::station::mono_wanted(args.mono),
+        export_dir: export_dir.clone(),
+        default_set: set.name.clone(),
+        demo: Some((tape, operator)),
+    };
+    let services = std::sync::Arc::new(crate::tui::wiring::StationServices::new());
+    let global = match temp {
+        Some(t) => Global {
+            data_dir: Some(t.to_path_buf()),
+            ..global.clone()
+        },
+        None => global.clone(),
+    };
+    let result = crate::tui::runner::run_with_log(options, services, &runtime, &global);
+    drop(harness);
+    println!("demo customer: {}", customer.description);
+    for s in store.list_sessions()?.iter().take(3) {
+        println!(
+            "session {} customer {} {} ({} readings)",
+            s.session.id, s.session.customer_id, s.session.status, s.current_readings
+        );
+    }
+    if temp.is_some() {
+        println!(
+            "the demo's store and exports were temporary ({}); pass --data-dir DIR to keep them",
+            store.path().display()
+        );
+    } else {
+        println!("exports: {}", export_dir.display());
+    }
+    result
+}
+
+/// A boot id that differs per run, as a real board's does.
+fn boot_id() -> u32 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.subsec_nanos() ^ (d.as_secs() as u32))
+        .unwrap_or(1)
+}
+
+/// The demo's simulated customer for a set.
+pub struct DemoCustomer {
+    /// The customer's true value of each measurement of the set (name,
+    /// tenths of a mm), in set order.
+    pub values: Vec<(String, u32)>,
+    /// Who it is, for the operator.
+    pub description: String,
+    /// Sex, when the customer is a real person.
+    pub sex: Option<tapeshape_engine::ansur::Sex>,
+}
+
+/// The ANSUR II test-split subject number `seed` (modulo the split's size)
+/// with their real values of every entry of `set` that has an ANSUR column;
+/// if any entry has none, seeded synthetic lengths of 30-120 cm.
+pub fn demo_customer(
     set: &tapeshape_measure::MeasurementSet,
     seed: u64,
-) -> anyhow::Result<(Script, String)> {
+) -> anyhow::Result<DemoCustomer> {
     use tapeshape_engine::ansur::{Ansur, Split};
-    use tapeshape_sim::tape::Step;
-    let pull = Duration::from_millis(1500);
     let ansur = Ansur::get()?;
     let test: Vec<_> = ansur.subjects(None, Split::Test).collect();
     let subject = test[(seed % test.len() as u64) as usize];
-    let values: Option<Vec<u32>> = set
+    let values: Option<Vec<(String, u32)>> = set
         .definitions
         .iter()
         .map(|d| {
             let metres = subject.dim(d.ansur.as_deref()?)?;
-            Some((metres * 10_000.0).round() as u32)
+            Some((d.name.clone(), (metres * 10_000.0).round() as u32))
         })
         .collect();
-    let Some(values) = values else {
-        let script = Script::session(set.definitions.len(), seed, 3000..12_000, pull);
-        return Ok((
-            script,
-            format!(
-                "synthetic lengths of 30 to 120 cm from seed {seed} (set {} has entries without an ANSUR II column)",
-                set.name
+    Ok(match values {
+        Some(values) => DemoCustomer {
+            values,
+            description: format!(
+                "ANSUR II test-split subject {} ({:?}, {} years): the tape reads this person's real {} measurements",
+                subject.id, subject.sex, subject.age_years, set.name
             ),
-        ));
-    };
-    let mut steps = Vec::with_capacity(2 * values.len());
-    for v in values {
+            sex: Some(subject.sex),
+        },
+        None => {
+            let script = Script::session(
+                set.definitions.len(),
+                seed,
+                3000..12_000,
+                Duration::from_millis(1500),
+            );
+            DemoCustomer {
+                values: set
+                    .definitions
+                    .iter()
+                    .map(|d| d.name.clone())
+                    .zip(script.confirmed_values())
+                    .collect(),
+                description: format!(
+                    "synthetic lengths of 30 to 120 cm from seed {seed} (set {} has entries without an ANSUR II column)",
+                    set.name
+                ),
+                sex: None,
+            }
+        }
+    })
+}
+
+/// The simulated operator's tape script for `set` and a line describing the
+/// customer ([`demo_customer`]): each value pulled out over 1.5 s (script
+/// time) and held.
+pub fn demo_script(
+    set: &tapeshape_measure::MeasurementSet,
+    seed: u64,
+) -> anyhow::Result<(Script, String)> {
+    use tapeshape_sim::tape::Step;
+    let customer = demo_customer(set, seed)?;
+    let mut steps = Vec::with_capacity(2 * customer.values.len());
+    for (_, v) in customer.values {
         steps.push(Step::Pull {
             to_tenth_mm: v,
-            over: pull,
+            over: Duration::from_millis(1500),
         });
         steps.push(Step::Hold);
     }
-    let customer = format!(
-        "ANSUR II test-split subject {} ({:?}, {} years): the tape reads this person's real {} measurements",
-        subject.id, subject.sex, subject.age_years, set.name
-    );
-    Ok((Script { steps }, customer))
+    Ok((Script { steps }, customer.description))
 }

@@ -1,9 +1,9 @@
-//! `tapeshape station`: run the tape link for one session and print what
-//! happens, line by line.
+//! `tapeshape station`: the fitting-room station on a real tape.
 //!
-//! This is the plain-text face of the station until the terminal interface
-//! (a later issue) replaces it; it is also what scripts and end-to-end tests
-//! drive. Every line on stdout starts with a fixed word (`session`, `port`,
+//! `tapeshape station --port PATH` runs the kiosk terminal interface
+//! ([`crate::tui`]). With `--customer`, `--session` or `--resume` it runs
+//! the plain line mode instead, which scripts and end-to-end tests drive:
+//! one line per event for one session. Every line on stdout starts with a fixed word (`session`, `port`,
 //! `connected`, `live`, `next`, `committed`, `complete`, `duplicate`, `gap`, `held`,
 //! `commit-failed`, `fault`, `status`, `button`, `bad-frame`,
 //! `disconnected`, `waiting`, `done`, `stopped`) so it can be followed by
@@ -23,14 +23,15 @@ use crate::store::{Session, SessionId, SessionStatus, Store};
 /// Arguments of `tapeshape station`.
 #[derive(clap::Args, Clone, Debug)]
 #[command(group(
-    clap::ArgGroup::new("which").required(true).args(["customer", "session", "resume"])
+    clap::ArgGroup::new("which").required(false).args(["customer", "session", "resume"])
 ))]
 pub struct Args {
     /// Serial port of the tape's firmware (e.g. /dev/ttyACM0, or a simulator's pty path).
     #[arg(long, value_name = "PATH")]
     pub port: PathBuf,
 
-    /// Start a new session for this customer id (opaque text).
+    /// Line mode: start a new session for this customer id (opaque text).
+    /// Without --customer, --session or --resume the terminal interface runs.
     #[arg(long, value_name = "ID")]
     pub customer: Option<String>,
 
@@ -67,12 +68,78 @@ pub struct Args {
     /// Baud rate of the host link (ignored by pseudo-terminals).
     #[arg(long, default_value_t = 115_200)]
     pub baud: u32,
+
+    /// Terminal interface without colours (also when NO_COLOR is set).
+    #[arg(long)]
+    pub mono: bool,
+
+    /// Folder for exported bodies and reports [default: DATA_DIR/exports].
+    #[arg(long, value_name = "DIR")]
+    pub export_dir: Option<PathBuf>,
+}
+
+/// Is the line mode asked for (a session named on the command line)?
+fn line_mode(args: &Args) -> bool {
+    args.customer.is_some() || args.session.is_some() || args.resume
+}
+
+/// Monochrome when asked, or when `NO_COLOR` is set to anything non-empty
+/// (<https://no-color.org>).
+pub fn mono_wanted(flag: bool) -> bool {
+    flag || std::env::var_os("NO_COLOR").is_some_and(|v| !v.is_empty())
+}
+
+/// Runs the terminal interface on `port` (the real-tape station).
+fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
+    use std::io::IsTerminal as _;
+    if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
+        bail!(
+            "the station's interface needs a terminal; for scripts use the line mode: \
+             tapeshape station --port {} --customer ID [--set quick]",
+            args.port.display()
+        );
+    }
+    for (given, what) in [
+        (!args.measurements.is_empty(), "--measurements"),
+        (args.exit_when_complete, "--exit-when-complete"),
+        (args.live, "--live"),
+        (args.measurement_set.is_some(), "--set"),
+    ] {
+        if given {
+            bail!("{what} belongs to the line mode (with --customer, --session or --resume); the interface asks for the set itself");
+        }
+    }
+    let store = global.open_store()?;
+    let export_dir = match args.export_dir {
+        Some(d) => d,
+        None => crate::store::resolve_data_dir(global.data_dir.as_deref())?.join("exports"),
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    let options = crate::tui::runner::RunOptions {
+        store,
+        port_label: args.port.display().to_string(),
+        port: args.port,
+        baud: args.baud,
+        mono: mono_wanted(args.mono),
+        export_dir,
+        default_set: "quick".into(),
+        demo: None,
+    };
+    let services = std::sync::Arc::new(crate::tui::wiring::StationServices::new());
+    crate::tui::runner::run_with_log(options, services, &runtime, global)
 }
 
 /// Runs the station until Ctrl-C (or completion with
 /// `--exit-when-complete`).
 pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     check_port(&args.port)?;
+    if !line_mode(&args) {
+        return run_tui(args, global);
+    }
     let store = global.open_store()?;
     let session = choose_session(&store, &args)?;
     let plan = plan(&store, &session, &args.measurements)?;
@@ -372,7 +439,8 @@ pub async fn record(
     result
 }
 
-fn describe_fault(f: &Fault) -> String {
+/// A device fault in operator words (what happened and what to do).
+pub fn describe_fault(f: &Fault) -> String {
     match *f {
         Fault::QueueFull {
             capacity,

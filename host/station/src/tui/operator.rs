@@ -1,0 +1,221 @@
+//! The demo's simulated tape and simulated operator.
+//!
+//! Why: `tapeshape demo` must run a whole session by itself (for a visitor,
+//! a screenshot, CI) and yet be the real program. The simulated tape
+//! ([`SimTape`]) writes tape lines into the firmware harness's tape port,
+//! pulling the tape out to the customer's true value and pressing hold, so
+//! every reading takes the real path: firmware logic, pty, link, store. The
+//! simulated operator ([`SimOperator`]) looks at the [`App`] on each tick and
+//! answers with the keys a careful operator would press ([`Event::SimKey`]);
+//! the app ignores those once a person has pressed a key.
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use crossterm::event::{KeyCode, KeyEvent};
+use tapeshape_protocol::UnitShown;
+use tapeshape_sim::pty::TtyStream;
+use tapeshape_sim::tape::{play, Script, Step, TapeLine, TapeTiming};
+use tokio::io::AsyncWriteExt;
+use tokio::sync::mpsc;
+
+use crate::tui::app::{App, FormField, ItemState, Screen, Sex};
+
+/// The simulated tape: measures a named measurement on the simulated
+/// customer when asked.
+#[derive(Clone, Debug)]
+pub struct SimTape {
+    values: HashMap<String, u32>,
+    tx: mpsc::UnboundedSender<u32>,
+}
+
+impl SimTape {
+    /// Starts the tape on `port` (the harness's tape port), with the
+    /// customer's true values (name -> tenths of a mm). `speedup` divides
+    /// the tape's timing (1.5 s pull at 1.0). Must run inside a tokio
+    /// runtime.
+    pub fn start(mut port: TtyStream, values: HashMap<String, u32>, speedup: f64) -> Self {
+        let (tx, mut rx) = mpsc::unbounded_channel::<u32>();
+        tokio::spawn(async move {
+            let heartbeat = TapeLine {
+                value_tenth_mm: 0,
+                confirmed: false,
+                unit: UnitShown::Metric,
+            }
+            .to_bytes()
+            .unwrap_or_default();
+            loop {
+                match tokio::time::timeout(Duration::from_millis(800), rx.recv()).await {
+                    Ok(Some(v)) => {
+                        let script = Script {
+                            steps: vec![
+                                Step::Pull {
+                                    to_tenth_mm: v,
+                                    over: Duration::from_millis(1500),
+                                },
+                                Step::Hold,
+                                Step::Pull {
+                                    to_tenth_mm: 0,
+                                    over: Duration::from_millis(300),
+                                },
+                            ],
+                        };
+                        let Ok(timeline) = script.timeline(TapeTiming::default()) else {
+                            continue;
+                        };
+                        if play(&timeline, speedup, &mut port, |_| {}).await.is_err() {
+                            break;
+                        }
+                    }
+                    Ok(None) => break,
+                    // Idle: a real tape sends a heartbeat now and then.
+                    Err(_) => {
+                        if port.write_all(&heartbeat).await.is_err() {
+                            break;
+                        }
+                    }
+                }
+            }
+        });
+        Self { values, tx }
+    }
+
+    /// The customer's true value of `name`, tenths of a mm.
+    pub fn truth(&self, name: &str) -> Option<u32> {
+        self.values.get(name).copied()
+    }
+
+    /// Pulls the tape to the customer's `name` and holds. With `slip`, the
+    /// value is read off the inch scale as if it were centimetres (a unit
+    /// slip, to show the check at work).
+    pub fn measure(&self, name: &str, slip: bool) -> Result<(), String> {
+        let v = self.truth(name).ok_or_else(|| {
+            format!("the simulated customer has no value for {name}; take it with Enter instead")
+        })?;
+        let v = if slip {
+            (f64::from(v) / 2.54).round() as u32
+        } else {
+            v
+        };
+        self.tx
+            .send(v)
+            .map_err(|_| "the simulated tape stopped".to_string())
+    }
+}
+
+/// The simulated operator's plan: what it does next given the app.
+#[derive(Debug)]
+pub struct SimOperator {
+    sex: Sex,
+    pace: Duration,
+    last: Option<Instant>,
+    /// Item being measured, its value then, and when the tape was asked.
+    waiting: Option<(String, Option<u32>, Instant)>,
+    /// Items already retaken once after a flag.
+    retaken: Vec<String>,
+    exported: bool,
+    sex_set: bool,
+}
+
+impl SimOperator {
+    /// An operator for a customer of `sex`, acting at most every `pace`.
+    pub fn new(sex: Sex, pace: Duration) -> Self {
+        Self {
+            sex,
+            pace,
+            last: None,
+            waiting: None,
+            retaken: Vec::new(),
+            exported: false,
+            sex_set: false,
+        }
+    }
+
+    /// The keys to press now (none most ticks).
+    pub fn next(&mut self, app: &App, now: Instant) -> Vec<crate::tui::app::Event> {
+        if self.last.is_some_and(|t| now.duration_since(t) < self.pace) {
+            return Vec::new();
+        }
+        let key = self.decide(app, now);
+        match key {
+            Some(k) => {
+                self.last = Some(now);
+                vec![crate::tui::app::Event::SimKey(KeyEvent::from(k))]
+            }
+            None => Vec::new(),
+        }
+    }
+
+    fn decide(&mut self, app: &App, now: Instant) -> Option<KeyCode> {
+        if app.help {
+            return Some(KeyCode::Esc);
+        }
+        match app.screen {
+            Screen::NewCustomer => {
+                if app.resume.is_some() {
+                    return Some(KeyCode::Char('n'));
+                }
+                if !self.sex_set {
+                    if app.form.field != FormField::Sex {
+                        return Some(KeyCode::Up);
+                    }
+                    self.sex_set = true;
+                    return match self.sex {
+                        Sex::Female => Some(KeyCode::Char('f')),
+                        Sex::Male => Some(KeyCode::Char('m')),
+                        Sex::Unspecified => None,
+                    };
+                }
+                Some(KeyCode::Enter)
+            }
+            Screen::Measuring => {
+                let s = app.session.as_ref()?;
+                let Some(c) = s.current else {
+                    return Some(KeyCode::Char('e'));
+                };
+                let item = &s.items[c];
+                match item.state {
+                    ItemState::Checking => None,
+                    ItemState::Flagged => {
+                        if self.retaken.contains(&item.info.name) {
+                            Some(KeyCode::Enter)
+                        } else if self.tape_free(item, now) {
+                            self.retaken.push(item.info.name.clone());
+                            self.waiting = Some((item.info.name.clone(), item.value, now));
+                            Some(KeyCode::Char('m'))
+                        } else {
+                            None
+                        }
+                    }
+                    _ => {
+                        if self.tape_free(item, now) {
+                            self.waiting = Some((item.info.name.clone(), item.value, now));
+                            Some(KeyCode::Char('m'))
+                        } else {
+                            None
+                        }
+                    }
+                }
+            }
+            Screen::Result if !self.exported => {
+                self.exported = true;
+                Some(KeyCode::Char('x'))
+            }
+            Screen::Device | Screen::History => Some(KeyCode::Esc),
+            _ => None,
+        }
+    }
+
+    /// True unless the tape was asked for `item` less than 10 s ago and its
+    /// reading has not arrived yet.
+    fn tape_free(&self, item: &crate::tui::app::Item, now: Instant) -> bool {
+        match &self.waiting {
+            Some((n, v, t)) => {
+                n != &item.info.name
+                    || *v != item.value
+                    || now.duration_since(*t) >= Duration::from_secs(10)
+            }
+            None => true,
+        }
+    }
+}

@@ -1,0 +1,451 @@
+//! The operator flow through `update` alone: no terminal, no tape, no
+//! engine. Each test states what an operator would see go wrong if the
+//! transition were wrong.
+
+mod tui_fixture;
+
+use crossterm::event::KeyCode;
+use tapeshape::store::{SessionId, SessionStatus};
+use tapeshape::tui::app::{Autopilot, DisplayUnit, Effect, Event, ItemState, Screen};
+use tapeshape::tui::services::{EstimateEvent, Stage};
+use tui_fixture::*;
+
+#[test]
+fn a_new_customer_form_creates_a_session_with_the_chosen_set_and_notes() {
+    let mut a = app(false);
+    assert_eq!(a.screen, Screen::NewCustomer);
+    // Sex field is focused first: f = female; down to age, type 34; down to
+    // the set, right = ansur.
+    let fx = send(
+        &mut a,
+        [
+            ch('f'),
+            key(KeyCode::Down),
+            ch('3'),
+            ch('4'),
+            ch('x'), // not a digit: ignored
+            key(KeyCode::Down),
+            key(KeyCode::Right),
+            key(KeyCode::Enter),
+        ],
+    );
+    let create = fx
+        .iter()
+        .find_map(|e| match e {
+            Effect::CreateSession {
+                customer,
+                set,
+                notes,
+            } => Some((customer.clone(), set.clone(), notes.clone())),
+            _ => None,
+        })
+        .expect("Enter creates a session");
+    assert!(
+        create.0.starts_with("c-") && create.0.len() == 8,
+        "{create:?}"
+    );
+    assert_eq!(create.1, "ansur");
+    assert_eq!(create.2.as_deref(), Some("sex: female, age: 34"));
+}
+
+#[test]
+fn an_impossible_age_is_refused_with_a_message() {
+    let mut a = app(false);
+    let fx = send(&mut a, [key(KeyCode::Down), ch('7'), key(KeyCode::Enter)]);
+    assert!(!fx.iter().any(|e| matches!(e, Effect::CreateSession { .. })));
+    assert!(a.form.error.as_deref().unwrap().contains("16 and 110"));
+}
+
+#[test]
+fn readings_go_to_the_current_measurement_and_advance_after_the_check() {
+    let mut a = app(false);
+    connect(&mut a);
+    let fx = open_session(&mut a, &[]);
+    assert_eq!(a.screen, Screen::Measuring);
+    assert!(fx.contains(&Effect::SetLinkSession(Some(SessionId(3)))));
+    assert_eq!(naming(&fx), Some(Some("stature".into())));
+    let fx = committed(&mut a, 0, "stature", 17_650);
+    // Checked before the app moves on; the tape's naming stays put so a
+    // quick second hold is a retake of the same measurement.
+    assert!(fx.iter().any(|e| matches!(e, Effect::Check(r) if r.name == "stature" && (r.value_mm - 1765.0).abs() < 1e-9)));
+    assert_eq!(current(&a).as_deref(), Some("stature"));
+    let fx = checked(&mut a, "stature", 17_650, None);
+    assert_eq!(current(&a).as_deref(), Some("chest"));
+    assert_eq!(naming(&fx), Some(Some("chest".into())));
+    // The next check sees the accepted reading as evidence.
+    let fx = committed(&mut a, 1, "chest", 9_820);
+    let req = fx
+        .iter()
+        .find_map(|e| match e {
+            Effect::Check(r) => Some(r.clone()),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(req.others, vec![("stature".to_string(), 1765.0)]);
+}
+
+#[test]
+fn a_flagged_reading_stays_current_until_retaken_or_kept() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    take(&mut a, 0, "stature", 17_650);
+    committed(&mut a, 1, "chest", 5_800);
+    checked(
+        &mut a,
+        "chest",
+        5_800,
+        Some("chest 58.0 cm is 6 SD below what stature predicts"),
+    );
+    let s = a.session.as_ref().unwrap();
+    assert_eq!(s.items[1].state, ItemState::Flagged);
+    assert_eq!(
+        current(&a).as_deref(),
+        Some("chest"),
+        "flag keeps it current"
+    );
+    assert!(a.notice.as_ref().unwrap().1.contains("measure again"));
+    // Measured again: the retake replaces the value, the old one is history.
+    committed(&mut a, 2, "chest", 9_820);
+    checked(&mut a, "chest", 9_820, None);
+    let s = a.session.as_ref().unwrap();
+    assert_eq!(s.items[1].state, ItemState::Done);
+    assert_eq!(s.items[1].value, Some(9_820));
+    assert_eq!(s.items[1].previous, vec![5_800]);
+    assert_eq!(current(&a).as_deref(), Some("waist"));
+
+    // Another flag, this time kept with Enter.
+    committed(&mut a, 3, "waist", 3_000);
+    checked(&mut a, "waist", 3_000, Some("waist 30.0 cm is 9 SD below"));
+    send(&mut a, [key(KeyCode::Enter)]);
+    let s = a.session.as_ref().unwrap();
+    assert_eq!(s.items[2].state, ItemState::Done);
+    assert!(s.items[2].kept_flagged);
+    assert_eq!(current(&a).as_deref(), Some("hip"));
+}
+
+#[test]
+fn a_stale_check_result_does_not_overwrite_a_retake() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    committed(&mut a, 0, "stature", 1_765);
+    committed(&mut a, 1, "stature", 17_650);
+    // The first reading's (flagged) check arrives late: ignored.
+    checked(
+        &mut a,
+        "stature",
+        1_765,
+        Some("stature 17.7 cm looks like ..."),
+    );
+    assert_eq!(
+        a.session.as_ref().unwrap().items[0].state,
+        ItemState::Checking
+    );
+    checked(&mut a, "stature", 17_650, None);
+    assert_eq!(a.session.as_ref().unwrap().items[0].state, ItemState::Done);
+}
+
+#[test]
+fn retake_moves_the_tape_to_the_selected_measurement() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    take(&mut a, 0, "stature", 17_650);
+    take(&mut a, 1, "chest", 9_820);
+    assert_eq!(current(&a).as_deref(), Some("waist"));
+    // Cursor up to chest, r.
+    let fx = send(&mut a, [key(KeyCode::Up), ch('r')]);
+    assert_eq!(current(&a).as_deref(), Some("chest"));
+    assert_eq!(naming(&fx), Some(Some("chest".into())));
+    take(&mut a, 2, "chest", 9_900);
+    let s = a.session.as_ref().unwrap();
+    assert_eq!(s.items[1].value, Some(9_900));
+    assert_eq!(s.items[1].previous, vec![9_820]);
+    // After the retake the tape goes on with the first one still to take.
+    assert_eq!(current(&a).as_deref(), Some("waist"));
+}
+
+#[test]
+fn skip_then_undo_restores_the_measurement() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    send(&mut a, [ch('s')]);
+    assert_eq!(
+        a.session.as_ref().unwrap().items[0].state,
+        ItemState::Skipped
+    );
+    assert_eq!(current(&a).as_deref(), Some("chest"));
+    let fx = send(&mut a, [ch('u')]);
+    assert_eq!(a.session.as_ref().unwrap().items[0].state, ItemState::Todo);
+    assert_eq!(current(&a).as_deref(), Some("stature"));
+    assert_eq!(naming(&fx), Some(Some("stature".into())));
+    // Skipped measurements are left out of the estimate.
+    send(&mut a, [ch('s')]);
+    take(&mut a, 0, "chest", 9_820);
+    let fx = send(&mut a, [ch('e')]);
+    let job = fx
+        .iter()
+        .find_map(|e| match e {
+            Effect::StartEstimate(j) => Some(j.clone()),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(job.readings, vec![("chest".to_string(), 982.0)]);
+}
+
+#[test]
+fn undo_of_a_reading_leaves_it_out_of_the_estimate_and_asks_for_it_again() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    take(&mut a, 0, "stature", 17_650);
+    take(&mut a, 1, "chest", 9_820);
+    send(&mut a, [ch('u')]);
+    let s = a.session.as_ref().unwrap();
+    assert_eq!(s.items[1].state, ItemState::Todo);
+    assert_eq!(s.items[1].value, None);
+    assert_eq!(current(&a).as_deref(), Some("chest"));
+    assert_eq!(s.accepted(), vec![("stature".to_string(), 1765.0)]);
+    assert!(a.notice.as_ref().unwrap().1.contains("history"));
+    // Nothing more to undo after everything is undone.
+    send(&mut a, [ch('u'), ch('u'), ch('u')]);
+    assert_eq!(a.notice.as_ref().unwrap().1, "Nothing to undo");
+    assert!(a.session.as_ref().unwrap().accepted().is_empty());
+}
+
+#[test]
+fn unit_toggle_changes_display_only() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    take(&mut a, 0, "stature", 17_650);
+    send(&mut a, [ch('i')]);
+    assert_eq!(a.unit, DisplayUnit::Inch);
+    assert_eq!(a.unit.format(254), "1.00 in");
+    assert_eq!(a.unit.format(17_650), "69.49 in");
+    send(&mut a, [ch('i')]);
+    assert_eq!(a.unit, DisplayUnit::Cm);
+    assert_eq!(a.unit.format(17_650), "176.5 cm");
+    assert_eq!(a.session.as_ref().unwrap().items[0].value, Some(17_650));
+}
+
+#[test]
+fn enter_captures_the_live_value_only_when_a_tape_is_connected() {
+    let mut a = app(false);
+    open_session(&mut a, &[]);
+    let fx = send(&mut a, [key(KeyCode::Enter)]);
+    assert!(!fx.iter().any(|e| matches!(e, Effect::CaptureLive { .. })));
+    connect(&mut a);
+    live(&mut a, 17_642);
+    let fx = send(&mut a, [key(KeyCode::Enter)]);
+    assert!(fx.contains(&Effect::CaptureLive {
+        session: SessionId(3),
+        name: "stature".into(),
+        value_tenth_mm: 17_642
+    }));
+    unplug(&mut a);
+    let fx = send(&mut a, [key(KeyCode::Enter)]);
+    assert!(!fx.iter().any(|e| matches!(e, Effect::CaptureLive { .. })));
+}
+
+#[test]
+fn unplugging_keeps_the_session_and_its_readings() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    take(&mut a, 0, "stature", 17_650);
+    let fx = send(&mut a, []);
+    assert!(fx.is_empty());
+    unplug(&mut a);
+    let fx = send(&mut a, [Event::Tick]);
+    // Nothing is re-pointed: the link keeps the session and naming.
+    assert!(fx.is_empty(), "{fx:?}");
+    assert_eq!(a.session.as_ref().unwrap().items[0].value, Some(17_650));
+    assert_eq!(current(&a).as_deref(), Some("chest"));
+    connect(&mut a);
+    take(&mut a, 1, "chest", 9_820);
+    assert_eq!(a.session.as_ref().unwrap().accepted().len(), 2);
+}
+
+#[test]
+fn a_resumed_session_continues_with_the_first_missing_measurement() {
+    let mut a = app(false);
+    send(
+        &mut a,
+        [Event::Resumable(tapeshape::tui::app::ResumeOffer {
+            session: SessionId(3),
+            customer: "c-test".into(),
+            set: Some("quick".into()),
+            readings: 2,
+        })],
+    );
+    let fx = send(&mut a, [ch('y')]);
+    assert!(fx.contains(&Effect::OpenSession(SessionId(3))));
+    open_session(&mut a, &[("stature", 17_650), ("waist", 8_400)]);
+    let s = a.session.as_ref().unwrap();
+    assert_eq!(s.items[0].state, ItemState::Done);
+    assert_eq!(s.items[2].state, ItemState::Done);
+    assert_eq!(current(&a).as_deref(), Some("chest"));
+}
+
+#[test]
+fn the_first_human_key_takes_over_from_the_simulated_operator() {
+    let mut a = app(true);
+    assert_eq!(a.autopilot, Autopilot::Driving);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    // The simulated operator's keys act while it drives.
+    let fx = send(
+        &mut a,
+        [Event::SimKey(crossterm::event::KeyEvent::from(
+            KeyCode::Char('m'),
+        ))],
+    );
+    assert!(fx.contains(&Effect::SimTape {
+        name: "stature".into(),
+        slip: false
+    }));
+    // A person presses s: it only takes over (no skip).
+    send(&mut a, [ch('s')]);
+    assert_eq!(a.autopilot, Autopilot::TakenOver);
+    assert_eq!(a.session.as_ref().unwrap().items[0].state, ItemState::Todo);
+    // From now on the simulated operator's keys are ignored ...
+    let fx = send(
+        &mut a,
+        [Event::SimKey(crossterm::event::KeyEvent::from(
+            KeyCode::Char('m'),
+        ))],
+    );
+    assert!(fx.is_empty());
+    // ... and the person's keys act.
+    send(&mut a, [ch('s')]);
+    assert_eq!(
+        a.session.as_ref().unwrap().items[0].state,
+        ItemState::Skipped
+    );
+}
+
+#[test]
+fn estimate_progress_cancel_and_failure() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    let fx = send(&mut a, [ch('e')]);
+    assert!(fx.is_empty() || !fx.iter().any(|e| matches!(e, Effect::StartEstimate(_))));
+    assert_eq!(a.screen, Screen::Measuring, "no readings: no estimate");
+    take(&mut a, 0, "stature", 17_650);
+    let fx = send(&mut a, [ch('e')]);
+    assert!(fx.iter().any(|e| matches!(e, Effect::StartEstimate(_))));
+    // The tape's readings are held while estimating.
+    assert_eq!(naming(&fx), Some(None));
+    send(
+        &mut a,
+        [Event::Estimate(EstimateEvent::Stage {
+            stage: Stage::Step1,
+            fraction: 0.05,
+        })],
+    );
+    assert_eq!(a.estimate.stages, vec![Stage::Step1]);
+    let fx = send(&mut a, [key(KeyCode::Esc)]);
+    assert!(fx.contains(&Effect::CancelEstimate));
+    let fx = send(&mut a, [Event::Estimate(EstimateEvent::Cancelled)]);
+    assert_eq!(a.screen, Screen::Measuring);
+    assert_eq!(naming(&fx), Some(Some("chest".into())));
+    send(&mut a, [ch('e')]);
+    send(
+        &mut a,
+        [Event::Estimate(EstimateEvent::Failed(
+            "chest 58 cm contradicts".into(),
+        ))],
+    );
+    assert_eq!(a.screen, Screen::Estimating);
+    assert!(!a.estimate.running);
+    send(&mut a, [key(KeyCode::Esc)]);
+    assert_eq!(a.screen, Screen::Measuring);
+}
+
+#[test]
+fn export_marks_the_session_done_and_history_delete_asks_first() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[("stature", 17_650)]);
+    send(&mut a, [ch('e')]);
+    send(
+        &mut a,
+        [Event::Estimate(EstimateEvent::Done(Box::new(
+            tapeshape::tui::services::EstimateSummary {
+                session: SessionId(3),
+                rows: Vec::new(),
+                plausibility: "typical".into(),
+                warnings: Vec::new(),
+                silhouettes: Default::default(),
+                seconds: 0.3,
+            },
+        )))],
+    );
+    assert_eq!(a.screen, Screen::Result);
+    let fx = send(&mut a, [ch('f'), ch('x')]);
+    assert!(fx.contains(&Effect::Export {
+        session: SessionId(3),
+        format: tapeshape::tui::services::ExportFormat::Obj
+    }));
+    let fx = send(
+        &mut a,
+        [Event::Exported(Ok(vec!["/tmp/x/body.obj".into()]))],
+    );
+    assert!(fx.contains(&Effect::SetStatus(SessionId(3), SessionStatus::Done)));
+
+    let fx = send(&mut a, [ch('h')]);
+    assert!(fx.contains(&Effect::LoadHistory));
+    assert_eq!(a.screen, Screen::History);
+    send(&mut a, [Event::History(history_rows())]);
+    // Delete: asks; any key but y keeps.
+    let fx = send(&mut a, [key(KeyCode::Delete), ch('n')]);
+    assert!(!fx.iter().any(|e| matches!(e, Effect::DeleteSession(_))));
+    let fx = send(&mut a, [key(KeyCode::Delete), ch('y')]);
+    assert!(fx.contains(&Effect::DeleteSession(SessionId(3))));
+    assert!(
+        a.session.is_none(),
+        "the deleted session is no longer measured"
+    );
+}
+
+fn history_rows() -> Vec<tapeshape::store::SessionSummary> {
+    use tapeshape::store::{Session, SessionSummary};
+    vec![SessionSummary {
+        session: Session {
+            id: SessionId(3),
+            customer_id: "c-test".into(),
+            created_at_ms: 1_700_000_000_000,
+            updated_at_ms: 1_700_000_060_000,
+            status: SessionStatus::Done,
+            measurement_set: Some("quick".into()),
+            notes: None,
+        },
+        current_readings: 1,
+        total_readings: 1,
+    }]
+}
+
+#[test]
+fn quit_needs_two_presses_and_ctrl_c_one() {
+    let mut a = app(false);
+    let fx = send(&mut a, [ch('q')]);
+    assert!(!a.quit && fx.is_empty());
+    send(&mut a, [ch('x')]);
+    send(&mut a, [ch('q')]);
+    assert!(!a.quit, "another key in between disarms");
+    let fx = send(&mut a, [ch('q')]);
+    assert!(a.quit && fx.contains(&Effect::Quit));
+    let mut b = app(false);
+    let fx = send(
+        &mut b,
+        [Event::Key(crossterm::event::KeyEvent::new(
+            KeyCode::Char('c'),
+            crossterm::event::KeyModifiers::CONTROL,
+        ))],
+    );
+    assert!(b.quit && fx.contains(&Effect::Quit));
+}
