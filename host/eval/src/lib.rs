@@ -3,7 +3,10 @@
 //! experiments as commands that regenerate their tables and figures
 //! (`tapeshape eval NAME --out docs/results/NAME`).
 
+pub mod experiments;
+pub mod figures;
 pub mod method;
 pub mod methods;
+pub mod report;
 
 pub use method::{Method, MethodError, MethodOutput, TrainingData};
