@@ -168,7 +168,7 @@ the sum over its 4 geodesics); a table cell averages over all dimensions and all
 measurements. Feature analysis is the paper's (Allen et al.): w = B [P; 1], not clamped.";
 
 const METRICS: &str = "**Beyond the paper.** *Implausible*: share of results whose normalised PCA weights (the result projected \
-onto the PCA of the training bodies, all components) have a chi-square quantile >= 0.999 (Mahalanobis distance beyond what 99.9 % \
+onto the PCA of the training bodies; the leading components that explain 99 % of the training variance) have a chi-square quantile >= 0.999 (Mahalanobis distance beyond what 99.9 % \
 of training-like bodies reach). *Out of space*: RMS distance (mm) from the result to that projection (how far it left the learned \
 space; step 2 of the method moves off it on purpose). *Folded*: results with more triangles facing the other way (relative to the \
 training mean body) than any training body has. *Vertex distance*: average and maximum distance between corresponding vertices \

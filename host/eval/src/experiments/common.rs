@@ -297,6 +297,12 @@ pub struct Reference {
     pub topology: Arc<Topology>,
     /// Most triangles any training body flips relative to the mean.
     pub train_flips_max: usize,
+    /// Leading components explaining 99 % of the training variance: the
+    /// Mahalanobis distance is taken over these only (the trailing
+    /// components' SDs are underestimated from N bodies, so a held-out body
+    /// projects onto them with large normalised weights and every body,
+    /// the true ones included, would look implausible).
+    pub n_lead: usize,
 }
 
 impl Reference {
@@ -318,23 +324,37 @@ impl Reference {
             .map(|m| triangle_changes(&data.topology, &mean, m).0)
             .max()
             .unwrap_or(0);
+        let var: Vec<f64> = fit.pca.sigma.iter().map(|x| x * x).collect();
+        let total: f64 = var.iter().sum();
+        let mut acc = 0.0;
+        let mut n_lead = var.len();
+        for (k, v) in var.iter().enumerate() {
+            acc += v;
+            if acc >= 0.99 * total {
+                n_lead = k + 1;
+                break;
+            }
+        }
         Ok(Self {
             pca: fit.pca,
             mean,
             topology: data.topology.clone(),
             train_flips_max,
+            n_lead,
         })
     }
 
     /// Plausibility of a body: Mahalanobis distance of its normalised PCA
-    /// weights (projection onto the training PCA), its chi-square quantile
-    /// with K degrees of freedom and label, and the RMS distance (mm) of the
+    /// weights (projection onto the training PCA) over the leading
+    /// [`Reference::n_lead`] components, its chi-square quantile with that
+    /// many degrees of freedom and label, and the RMS distance (mm) of the
     /// body from its projection (how far it left the training space).
     pub fn plausibility(&self, vertices: &[Vec3]) -> (f64, f64, PlausibilityLabel, f64) {
         let flat: Vec<f64> = vertices.iter().flat_map(|p| p.iter().copied()).collect();
         let w = self.pca.project(&flat);
-        let maha = w.iter().map(|x| x * x).sum::<f64>().sqrt();
-        let q = chi2_quantile(maha * maha, w.len());
+        let lead = &w[..self.n_lead.min(w.len())];
+        let maha = lead.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let q = chi2_quantile(maha * maha, lead.len());
         let back = self.pca.reconstruct(&w);
         let rms = (flat
             .iter()
