@@ -7,7 +7,9 @@ mod methods_common;
 use std::sync::Arc;
 
 use methods_common::{all_given, fixture, mean_body, mean_error_mm};
-use tapeshape_eval::methods::{FeatureAnalysis, Ours, StepOneOnly};
+use tapeshape_eval::methods::{
+    FeatureAnalysis, Ours, RbfInterpolation, RbfSettings, Sgplvm, SgplvmSettings, StepOneOnly,
+};
 use tapeshape_eval::Method;
 use tapeshape_model::PredictSettings;
 
@@ -114,5 +116,13 @@ fn a_model_from_another_set_is_refused() {
     let ours = Ours::fit(&f.data, PredictSettings::default()).unwrap();
     let mut model = (**ours.model()).clone();
     model.measurement_names[0] = "something else".into();
-    assert!(FeatureAnalysis::from_model(Arc::new(model), &f.data, None).is_err());
+    let model = Arc::new(model);
+    let err = FeatureAnalysis::from_model(model.clone(), &f.data, None)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(err.contains("another measurement set"), "{err}");
+    assert!(Ours::from_model(model.clone(), &f.data, PredictSettings::default()).is_err());
+    assert!(RbfInterpolation::from_model(model.clone(), &f.data, RbfSettings::default()).is_err());
+    assert!(Sgplvm::from_model(model, &f.data, SgplvmSettings::default()).is_err());
 }

@@ -153,6 +153,32 @@ pub(crate) fn fit_model(method: &str, data: &TrainingData) -> Result<ShapeModel,
     .map_err(|e| train_err(method, e.to_string()))
 }
 
+/// Checks that `model` was fitted on `data`'s measurement set and template
+/// (same measurement names in the same order, same vertex count).
+pub(crate) fn check_model(
+    method: &str,
+    model: &ShapeModel,
+    data: &TrainingData,
+) -> Result<(), MethodError> {
+    if model.measurement_names != measurement_names(data) {
+        return Err(train_err(
+            method,
+            "the model was trained on another measurement set than the data's: fit it on the same data",
+        ));
+    }
+    if model.n_vertices() != data.topology.n_vertices() {
+        return Err(train_err(
+            method,
+            format!(
+                "the model has {} vertices, the data's topology {}",
+                model.n_vertices(),
+                data.topology.n_vertices()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Normalised PCA weights of every training body under `model`'s PCA,
 /// `N x K` (row per body; `w_k = a_k . (x - mu) / sigma_k`, dimensionless).
 pub fn training_weights(model: &ShapeModel, data: &TrainingData) -> Vec<Vec<f64>> {

@@ -24,7 +24,7 @@
 //! chained with each measurement's support gradient. Written by hand because
 //! no well-kept crate offers bounded nonlinear least squares with a
 //! user-supplied Jacobian (argmin's Gauss-Newton has neither bounds nor
-//! damping; its Nelder-Mead or L-BFGS with finite differences would need 28
+//! damping; its Nelder-Mead or L-BFGS with finite differences would need 27
 //! body generations per gradient where this needs one Jacobian). Bounds are
 //! an active set: a parameter at a bound whose step points outwards is held
 //! for that step. Two starts (the default phenotype as a man and as a

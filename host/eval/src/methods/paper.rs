@@ -53,23 +53,7 @@ impl Trained {
         model: Arc<ShapeModel>,
         data: &TrainingData,
     ) -> Result<Self, MethodError> {
-        let names = super::common::measurement_names(data);
-        if model.measurement_names != names {
-            return Err(MethodError::Train {
-                method: method.into(),
-                message: "the model was trained on another measurement set than the data's".into(),
-            });
-        }
-        if model.n_vertices() != data.topology.n_vertices() {
-            return Err(MethodError::Train {
-                method: method.into(),
-                message: format!(
-                    "the model has {} vertices, the data's topology {}",
-                    model.n_vertices(),
-                    data.topology.n_vertices()
-                ),
-            });
-        }
+        super::common::check_model(method, &model, data)?;
         Ok(Self {
             model,
             compiled: data.compiled.clone(),

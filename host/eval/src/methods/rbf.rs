@@ -141,6 +141,7 @@ impl RbfInterpolation {
         settings: RbfSettings,
     ) -> Result<Self, MethodError> {
         super::common::check_training(Self::NAME, data, 3)?;
+        super::common::check_model(Self::NAME, &model, data)?;
         if !(settings.regularisation >= 0.0 && settings.regularisation.is_finite()) {
             return Err(train_err(
                 Self::NAME,

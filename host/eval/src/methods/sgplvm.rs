@@ -6,7 +6,8 @@
 //!
 //! # Model
 //!
-//! N training bodies share latent points `X` (N x q, q small, default 4).
+//! N training bodies share latent points `X` (N x q, q small, default 8:
+//! see [`SgplvmSettings::latent_dim`]).
 //! Two output spaces, each a Gaussian process over `X` with its own kernel
 //! `k_s(x, x') = alpha_s exp(-gamma_s |x - x'|^2 / 2) + b_s + sigma_s^2 [x = x']`
 //! (RBF + bias + white noise):
@@ -87,7 +88,11 @@ fn bounded_log_slope(t: f64) -> f64 {
 /// Settings of [`Sgplvm`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct SgplvmSettings {
-    /// Latent dimension q (1..=10).
+    /// Latent dimension q (1..=10). Default 8: on held-out generated bodies
+    /// (N = 360, paper34) the error fell from 8.3 mm (q = 2) and 7.3 mm
+    /// (q = 4) to 5.4 mm (q = 8) and then hardly (5.3 mm at q = 10); a
+    /// second validation population (seed 3) agreed (8.7 mm at q = 4, 6.6 mm
+    /// at q = 8). A baseline should be as strong as a fair rule makes it.
     pub latent_dim: usize,
     /// Keep the leading PCA components explaining this share of the shape
     /// variance in the W space's likelihood (0 < f <= 1).
@@ -103,7 +108,7 @@ pub struct SgplvmSettings {
 impl Default for SgplvmSettings {
     fn default() -> Self {
         Self {
-            latent_dim: 4,
+            latent_dim: 8,
             variance_fraction: 0.99,
             train_iterations: 400,
             starts: 5,
@@ -387,6 +392,7 @@ impl Sgplvm {
         settings: SgplvmSettings,
     ) -> Result<Self, MethodError> {
         super::common::check_training(Self::NAME, data, 3)?;
+        super::common::check_model(Self::NAME, &model, data)?;
         let n = data.meshes.len();
         if !(1..=10).contains(&settings.latent_dim) || settings.latent_dim >= n {
             return Err(train_err(
