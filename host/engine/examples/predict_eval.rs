@@ -39,7 +39,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     match args.first().map(String::as_str) {
         Some("sreal") => sreal(&args),
         Some("iso") => iso(&args),
-        _ => Err("usage: predict_eval sreal|iso [options] (see the file's docs)".into()),
+        Some("diag") => diag(&args),
+        _ => Err("usage: predict_eval sreal|iso|diag [options] (see the file's docs)".into()),
     }
 }
 
@@ -51,6 +52,17 @@ fn vertex_distance_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
         })
         .sum::<f64>()
         / a.len() as f64
+        * 1000.0
+}
+
+/// Root-mean-square vertex distance, mm (the quantity the Bayes bound is about).
+fn vertex_rms_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
+    (a.iter()
+        .zip(b)
+        .map(|(p, q)| (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2))
+        .sum::<f64>()
+        / a.len() as f64)
+        .sqrt()
         * 1000.0
 }
 
@@ -131,7 +143,11 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             e,
         ));
     }
-    println!("\nS_real: {n} held-out generated bodies, inputs = their paper34 values, settings l = 3, lambda = 0.1, s = 3\n");
+    let base = settings_from_args(args)?;
+    println!(
+        "\nS_real: {n} held-out generated bodies, inputs = their paper34 values, settings l = {}, lambda = {}, s = {}, step-1 weighting {:?}, prior {:?} mm, step-1 components {:?}\n",
+        base.l, base.lambda, base.s, base.step1_weighting, base.step1_prior_mm, base.step1_components
+    );
     println!("| model | method | Euclidean (14) mm | circumference, planar (4) mm | circumference, geodesic loops (4) mm | all circumferences mm | vertex distance mm | flipped / degenerate vs step-1 shape | flipped / degenerate vs true body (true body vs PCA mean) | mean time s |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for (label, engine) in &engines {
@@ -155,16 +171,41 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             "| {label} | projection of the true body onto the PCA space (floor of step 1) | | | | | {:.2} | | | |",
             mean(&floor)
         );
+        // The Bayes bound of the linear-Gaussian model: the weights' covariance
+        // given the readings, pushed through the (orthonormal) basis, gives the
+        // expected squared vertex error of the conditional mean (the best
+        // estimate in the mean-square sense when the readings are linear in
+        // the weights); no method that only uses the training Gaussian can do
+        // better on average.
+        {
+            let model = &engine.file().model;
+            let m = model.n_measurements();
+            let k = model.n_components();
+            let wanted: Vec<usize> = (m..m + k).collect();
+            let observed: Vec<(usize, f64, f64)> =
+                idx.iter().map(|&j| (j, model.joint.mean[j], 0.0)).collect();
+            let c = model.joint.conditional(&wanted, &observed)?;
+            let v = model.n_vertices() as f64;
+            let ms: f64 = (0..k)
+                .map(|i| model.pca.sigma[i].powi(2) * c.cov[(i, i)])
+                .sum::<f64>()
+                / v;
+            println!(
+                "| {label} | Bayes bound: RMS vertex error expected from the Gaussian conditional of the weights on these readings | | | | | RMS {:.2} | | | |",
+                ms.sqrt() * 1000.0
+            );
+        }
         for (method, s) in [
             ("feature analysis alone (start)", 0usize),
             ("full (start + steps 1, 2)", 3),
         ] {
             let settings = PredictSettings {
                 s,
-                ..PredictSettings::default()
+                ..settings_from_args(args)?
             };
             let (mut eu, mut ci, mut lo, mut vd, mut tt) = (vec![], vec![], vec![], vec![], vec![]);
             let mut vd1 = vec![];
+            let (mut rms, mut rms1) = (vec![], vec![]);
             let (mut flipped, mut degenerate) = (0, 0);
             let (mut own_flipped, mut own_degenerate, mut truth_vs_mean) = (0, 0, 0);
             let mean_shape = engine
@@ -198,9 +239,12 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 ci.extend(b);
                 lo.extend(c);
                 vd.push(vertex_distance_mm(&est.mesh.vertices, body));
+                rms.push(vertex_rms_mm(&est.mesh.vertices, body));
                 if s > 0 {
                     let w1 = &est.report.prediction.weights_step1;
-                    vd1.push(vertex_distance_mm(&engine.file().model.shape(w1)?, body));
+                    let x1 = engine.file().model.shape(w1)?;
+                    vd1.push(vertex_distance_mm(&x1, body));
+                    rms1.push(vertex_rms_mm(&x1, body));
                 }
                 let (f, d) = tapeshape_model::predict::triangle_changes(
                     engine.topology(),
@@ -221,18 +265,20 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             }
             let all: Vec<f64> = ci.iter().chain(&lo).copied().collect();
             println!(
-                "| {label} | {method} | {:.4} | {:.3} | {:.3} | {:.3} | {:.2} | {own_flipped} / {own_degenerate} | {flipped} / {degenerate} ({truth_vs_mean}) | {:.3} |",
+                "| {label} | {method} | {:.4} | {:.3} | {:.3} | {:.3} | {:.2} (RMS {:.2}) | {own_flipped} / {own_degenerate} | {flipped} / {degenerate} ({truth_vs_mean}) | {:.3} |",
                 mean(&eu),
                 mean(&ci),
                 mean(&lo),
                 mean(&all),
                 mean(&vd),
+                mean(&rms),
                 mean(&tt)
             );
             if !vd1.is_empty() {
                 println!(
-                    "| {label} | step-1 shape of the full run (inside the PCA space) | | | | | {:.2} | | | |",
-                    mean(&vd1)
+                    "| {label} | step-1 shape of the full run (inside the PCA space) | | | | | {:.2} (RMS {:.2}) | | | |",
+                    mean(&vd1),
+                    mean(&rms1)
                 );
             }
         }
@@ -313,12 +359,11 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let n: usize = arg(args, "--n").map_or(Ok(50), |s| s.parse())?;
     let n_ansur: usize = arg(args, "--ansur").map_or(Ok(100), |s| s.parse())?;
     let n_subsets: usize = arg(args, "--subsets").map_or(Ok(3), |s| s.parse())?;
-    let l: f64 = arg(args, "--l").map_or(Ok(3.0), |s| s.parse())?;
-    let settings = PredictSettings {
-        l,
-        ..PredictSettings::default()
-    };
-    println!("settings: l = {l}, lambda = 0.1, s = 3");
+    let settings = settings_from_args(args)?;
+    println!(
+        "settings: l = {}, lambda = {}, s = {}, step-1 weighting {:?}, step-2 weighting {:?}",
+        settings.l, settings.lambda, settings.s, settings.step1_weighting, settings.step2_weighting
+    );
     let heldout = arg(args, "--heldout")
         .map(|h| Dataset::read(&PathBuf::from(h)))
         .transpose()?;
@@ -393,4 +438,179 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     Ok(())
+}
+
+/// Why does a measurement miss its ISO tolerance? For the first `--n`
+/// held-out bodies, predicts from the full `--set` and, for every body with
+/// a failing measurement, prints the report (target, start, step 1, step 2)
+/// and what each L-BFGS run did (iterations, energy, why it stopped).
+fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let engine = match arg(args, "--model") {
+        Some(m) => Engine::load(&PathBuf::from(m))?,
+        None => Engine::new(
+            Engine::default_model()?.file().clone(),
+            "embedded default model",
+        )?,
+    };
+    let n: usize = arg(args, "--n").map_or(Ok(10), |s| s.parse())?;
+    let set = arg(args, "--set").unwrap_or_else(|| "quick".into());
+    let settings = settings_from_args(args)?;
+    let names = usable(&engine, engine.set_members(&set)?);
+    let idx: Vec<usize> = names
+        .iter()
+        .map(|n| engine.set().index_of(n).expect("member"))
+        .collect();
+    let only: Option<Vec<usize>> = arg(args, "--bodies")
+        .map(|v| v.split(',').map(|x| x.parse()).collect())
+        .transpose()?;
+    // Inputs: held-out bodies' values (--heldout FILE) or ANSUR II test-split
+    // subjects' real values (--ansur-subjects).
+    let cases: Vec<Vec<Option<f64>>> = if let Some(h) = arg(args, "--heldout") {
+        let heldout = Dataset::read(&PathBuf::from(h))?;
+        heldout
+            .bodies
+            .iter()
+            .take(n)
+            .map(|body| {
+                idx.iter()
+                    .map(|&j| {
+                        engine
+                            .compiled()
+                            .measure_one(j, body)
+                            .map(|m| Some(m.value))
+                    })
+                    .collect::<Result<_, _>>()
+            })
+            .collect::<Result<_, _>>()?
+    } else {
+        let ansur = Ansur::get()?;
+        ansur
+            .subjects(None, Split::Test)
+            .take(n)
+            .map(|subject| {
+                idx.iter()
+                    .map(|&j| {
+                        engine.set().definitions[j]
+                            .ansur
+                            .as_deref()
+                            .and_then(|c| subject.dim(c))
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    for (b, case) in cases.iter().enumerate() {
+        if only.as_ref().is_some_and(|o| !o.contains(&b)) {
+            continue;
+        }
+        let mut inputs = Inputs::new();
+        for (name, v) in names.iter().zip(case) {
+            if let Some(v) = v {
+                inputs.insert_metres(name, *v)?;
+            }
+        }
+        let truth: Vec<f64> = case.iter().map(|v| v.unwrap_or(f64::NAN)).collect();
+        let est = engine.predict(&inputs, &settings)?;
+        let mut failing = Vec::new();
+        for (k, &j) in idx.iter().enumerate() {
+            let tol = engine.set().definitions[j].tolerance.mm();
+            let v = engine.compiled().measure_one(j, &est.mesh.vertices)?.value;
+            let e = (v - truth[k]) * 1000.0;
+            if e.abs() > tol {
+                failing.push(format!("{} {e:+.1} mm (tol {tol})", names[k]));
+            }
+        }
+        let r = &est.report.prediction;
+        println!(
+            "body {b}: {} failing: {}",
+            failing.len(),
+            failing.join(", ")
+        );
+        if !failing.is_empty() || arg(args, "--all").is_some() {
+            for m in &r.measurements {
+                if let (Some(t), Some(s0), Some(s1), Some(s2)) =
+                    (m.target_mm, m.start_mm, m.step1_mm, m.step2_mm)
+                {
+                    println!(
+                        "  {:<28} target {t:8.1}  start {:+7.2}  step1 {:+7.2}  step2 {:+7.2}",
+                        m.name,
+                        s0 - t,
+                        s1 - t,
+                        s2 - t
+                    );
+                }
+            }
+            for (k, run) in r.step1_runs.iter().enumerate() {
+                println!(
+                    "  step1 run {k}: {} it, E {:.3e} -> {:.3e}, {}",
+                    run.iterations, run.cost_start, run.cost_end, run.reason
+                );
+            }
+            for (k, run) in r.step2_runs.iter().enumerate() {
+                println!(
+                    "  step2 run {k}: {} it, E {:.3e} -> {:.3e}, {}",
+                    run.iterations, run.cost_start, run.cost_end, run.reason
+                );
+            }
+            println!(
+                "  time: step1 {:.0} ms, step2 {:.0} ms",
+                r.timings.step1.as_secs_f64() * 1e3,
+                r.timings.step2.as_secs_f64() * 1e3
+            );
+            for w in &r.warnings {
+                println!("  warning: {w}");
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Prediction settings from `--l`, `--lambda`, `--s` (defaults: the station's).
+fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::error::Error>> {
+    let mut s = PredictSettings::default();
+    if let Some(v) = arg(args, "--l") {
+        s.l = v.parse()?;
+    }
+    if let Some(v) = arg(args, "--lambda") {
+        s.lambda = v.parse()?;
+    }
+    if let Some(v) = arg(args, "--s") {
+        s.s = v.parse()?;
+    }
+    let weighting = |v: String| match v.as_str() {
+        "paper" => Ok(tapeshape_model::predict::EnergyWeighting::Paper),
+        "per-measurement" => Ok(tapeshape_model::predict::EnergyWeighting::PerMeasurement),
+        _ => Err(format!("weighting {v}: paper or per-measurement")),
+    };
+    if let Some(v) = arg(args, "--w1") {
+        s.step1_weighting = weighting(v)?;
+    }
+    if let Some(v) = arg(args, "--w2") {
+        s.step2_weighting = weighting(v)?;
+    }
+    if let Some(v) = arg(args, "--prior") {
+        s.step1_prior_mm = Some(v.parse()?);
+    }
+    if let Some(v) = arg(args, "--k1") {
+        s.step1_components = Some(v.parse()?);
+    }
+    if let Some(v) = arg(args, "--box") {
+        s.step1_box = v == "on";
+    }
+    if let Some(v) = arg(args, "--cont") {
+        s.continuation = match v.as_str() {
+            "off" => None,
+            n => Some(tapeshape_model::predict::Continuation {
+                max_extra_rounds: n.parse()?,
+                ..Default::default()
+            }),
+        };
+    }
+    if let Some(v) = arg(args, "--iters1") {
+        s.stop.max_iters = v.parse()?;
+    }
+    if let Some(v) = arg(args, "--iters2") {
+        s.step2_stop.max_iters = v.parse()?;
+    }
+    Ok(s)
 }

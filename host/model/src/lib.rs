@@ -37,9 +37,9 @@ mod model;
 pub use file::{MeasurementSetText, ModelFile, Provenance, TemplateInfo};
 pub use model::{FitSettings, ShapeModel};
 pub use predict::{
-    Control, MeasurementReport, Measurer, Plausibility, PlausibilityLabel, PredictObserver,
-    PredictProgress, PredictSettings, PredictStage, Prediction, PredictionReport, StageTimings,
-    StartMethod, Target,
+    Continuation, Control, EnergyWeighting, MeasurementReport, Measurer, Plausibility,
+    PlausibilityLabel, PredictObserver, PredictProgress, PredictSettings, PredictStage, Prediction,
+    PredictionReport, StageTimings, StartMethod, Target,
 };
 pub use refine::{LbfgsImpl, StopRule};
 pub use tapeshape_measure::{Measured, Support, SupportPoint};

@@ -57,6 +57,14 @@ pub trait Measurer {
     /// (template order, metres, station frame); returns one [`Measured`] per
     /// index, in the order of `which`, each with its support.
     fn measure(&self, vertices: &[Vec3], which: &[usize]) -> Result<Vec<Measured>, MeasureError>;
+
+    /// The largest error (metres) a re-measured value of measurement `j` may
+    /// show against its target, e.g. the ISO 20685-1 class of the set's
+    /// definition; `None` if the measurer does not know (then
+    /// [`Continuation::default_allowable_mm`] applies).
+    fn allowable_error(&self, _j: usize) -> Option<f64> {
+        None
+    }
 }
 
 /// The real operators: a measurement set compiled for the template.
@@ -70,6 +78,14 @@ impl Measurer for tapeshape_measure::CompiledSet {
             .iter()
             .map(|&j| self.measure_one(j, vertices).map_err(Into::into))
             .collect()
+    }
+
+    /// The ISO 20685-1 maximum allowable error of the definition's class.
+    fn allowable_error(&self, j: usize) -> Option<f64> {
+        self.set()
+            .definitions
+            .get(j)
+            .map(|d| d.tolerance.mm() / MM_PER_M)
     }
 }
 
@@ -129,6 +145,83 @@ pub struct PredictSettings {
     pub reference_tolerance: f64,
     /// Warn about any given measurement whose final error exceeds this (mm).
     pub warn_error_mm: f64,
+    /// How step 1 weights the measurements' energies (see [`EnergyWeighting`]).
+    #[serde(default = "paper_weighting")]
+    pub step1_weighting: EnergyWeighting,
+    /// How step 2 weights the measurements' energies (see [`EnergyWeighting`]).
+    #[serde(default = "paper_weighting")]
+    pub step2_weighting: EnergyWeighting,
+    /// Step 1 as a MAP estimate: `Some(tau)` adds the training Gaussian of
+    /// the normalised weights, `tau^2 |w|^2` (tau in mm), to `E_m`, so with
+    /// [`EnergyWeighting::PerMeasurement`] step 1 minimises
+    /// `sum_j (error_j / tau)^2 + |w|^2` (readings with noise tau mm).
+    /// `None` (the paper): `E_m` alone.
+    #[serde(default)]
+    pub step1_prior_mm: Option<f64>,
+    /// `Some(k)`: step 1 moves only the first k PCA components (the rest keep
+    /// their start values). `None` (the paper): all.
+    #[serde(default)]
+    pub step1_components: Option<usize>,
+    /// Step 1 inside the box `|w_i| <= l`: before every round after the
+    /// first, the weights beyond `l` are clamped and held there, so the
+    /// following rounds refit the other components to the readings (an
+    /// active-set method). `false` (the paper): one clamp after step 1,
+    /// which undoes whatever fit the clamped components carried.
+    #[serde(default)]
+    pub step1_box: bool,
+    /// More rounds while readings miss their allowable error (see
+    /// [`Continuation`]). `None` (the paper): exactly `s` rounds per step.
+    #[serde(default)]
+    pub continuation: Option<Continuation>,
+}
+
+/// Rounds beyond `s` (each: recompute the supports, one more L-BFGS run) while
+/// a given reading's error on the current shape exceeds `share` times its
+/// allowable error ([`Measurer::allowable_error`], at least its tolerance if
+/// it has one), as long as each round cuts the summed excess by at least 5 %
+/// and the step has not used up `time_budget_s`. Applies to both steps.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Continuation {
+    /// At most this many rounds beyond `s`, per step.
+    pub max_extra_rounds: usize,
+    /// A reading misses when its error exceeds this share of its allowable error.
+    pub share: f64,
+    /// Allowable error (mm) of a measurement the measurer gives none for.
+    pub default_allowable_mm: f64,
+    /// No new round once the step has run this long (seconds).
+    pub time_budget_s: f64,
+}
+
+impl Default for Continuation {
+    fn default() -> Self {
+        Self {
+            max_extra_rounds: 10,
+            share: 0.5,
+            default_allowable_mm: 4.0,
+            time_budget_s: 1.0,
+        }
+    }
+}
+
+fn paper_weighting() -> EnergyWeighting {
+    EnergyWeighting::Paper
+}
+
+/// How the segment terms of one measurement are weighted in `E_m`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum EnergyWeighting {
+    /// The paper's `E_m`: every segment term `(l^2 - l_t^2)^2` with weight 1
+    /// (times the reading's tolerance weight). A measurement of length `L`
+    /// split into `n` hull or path segments then costs about
+    /// `4 L^2 D^2 / n^3` for an error `D`: a 1 mm error of the stature
+    /// (one segment) weighs about 1e5 times a 1 mm error of a 30-segment
+    /// waist, so L-BFGS fits heights and lengths first and girths last.
+    Paper,
+    /// Each measurement's terms scaled by `L_t^2 / (4 sum_e l_t(e)^4)`, so that
+    /// its energy is about `D^2` (mm^2) whatever its length and number of
+    /// segments: every millimetre of error weighs the same. The same
+    /// minimisers where all targets can be met; a better-conditioned problem.
+    PerMeasurement,
 }
 
 impl Default for PredictSettings {
@@ -146,6 +239,29 @@ impl Default for PredictSettings {
             step2_solver: LbfgsImpl::Builtin,
             reference_tolerance: 0.001,
             warn_error_mm: 5.0,
+            step1_weighting: EnergyWeighting::PerMeasurement,
+            step2_weighting: EnergyWeighting::Paper,
+            step1_prior_mm: None,
+            step1_components: None,
+            step1_box: true,
+            continuation: Some(Continuation::default()),
+        }
+    }
+}
+
+impl PredictSettings {
+    /// The paper's method exactly: `E_m` weighted as the paper writes it,
+    /// one clamp after step 1, exactly `s` rounds per step (l = 3,
+    /// lambda = 0.1, s = 3, the paper's stopping rules). The default differs
+    /// in three settings, each measured in `docs/results/predict-iso.md`:
+    /// [`EnergyWeighting::PerMeasurement`] in step 1, `step1_box` and a
+    /// [`Continuation`].
+    pub fn paper() -> Self {
+        Self {
+            step1_weighting: EnergyWeighting::Paper,
+            step1_box: false,
+            continuation: None,
+            ..Self::default()
         }
     }
 }
@@ -365,14 +481,16 @@ pub struct Prediction {
 pub enum PredictStage {
     /// Finding the start weights and measuring the start shape.
     Start,
-    /// Step 1 (over the weights), round `run` (0-based) of `of`.
+    /// Step 1 (over the weights), round `run` (0-based) of `of` (`run >= of`:
+    /// a continuation round, see [`Continuation`]).
     Step1 {
         /// Round, 0-based.
         run: usize,
         /// Number of rounds (the settings' `s`).
         of: usize,
     },
-    /// Step 2 (over the vertices), round `run` (0-based) of `of`.
+    /// Step 2 (over the vertices), round `run` (0-based) of `of` (`run >= of`:
+    /// a continuation round).
     Step2 {
         /// Round, 0-based.
         run: usize,
@@ -387,6 +505,12 @@ impl std::fmt::Display for PredictStage {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::Start => write!(f, "start"),
+            Self::Step1 { run, of } if run >= of => {
+                write!(f, "step 1, extra round {}", run - of + 1)
+            }
+            Self::Step2 { run, of } if run >= of => {
+                write!(f, "step 2, extra round {}", run - of + 1)
+            }
             Self::Step1 { run, of } => write!(f, "step 1, round {} of {of}", run + 1),
             Self::Step2 { run, of } => write!(f, "step 2, round {} of {of}", run + 1),
             Self::Done => write!(f, "done"),
@@ -428,7 +552,13 @@ impl PredictProgress {
             PredictStage::Step2 { run, of } => (STAGE_SHARES[2], STAGE_SHARES[3], run, of),
         };
         let of = of.max(1);
-        let done = (run.min(of - 1) as f64 + within(self.evaluations)) / of as f64;
+        // Rounds beyond `of` (continuation) stay at the last round's cap, so
+        // the fraction never goes back.
+        let done = if run >= of {
+            (of as f64 - 1.0 + within(u64::MAX)) / of as f64
+        } else {
+            (run as f64 + within(self.evaluations)) / of as f64
+        };
         lo + (hi - lo) * done
     }
 }
@@ -552,6 +682,42 @@ fn to_m(x: &[Vec3]) -> Vec<Vec3> {
     x.iter()
         .map(|v| [v[0] / MM_PER_M, v[1] / MM_PER_M, v[2] / MM_PER_M])
         .collect()
+}
+
+/// Per given reading, the error (mm) above which a continuation round runs:
+/// `share` times its allowable error, at least its own tolerance. Empty
+/// without continuation.
+fn continuation_thresholds(
+    given: &[Given],
+    targets: &[Option<Target>],
+    measurer: &dyn Measurer,
+    cont: Option<Continuation>,
+) -> Vec<f64> {
+    let Some(c) = cont else {
+        return Vec::new();
+    };
+    given
+        .iter()
+        .map(|g| {
+            let allowable = measurer
+                .allowable_error(g.index)
+                .map_or(c.default_allowable_mm, |a| a * MM_PER_M);
+            let tol = targets[g.index]
+                .and_then(|t| t.tolerance)
+                .map_or(0.0, |t| t * MM_PER_M);
+            (c.share * allowable).max(tol)
+        })
+        .collect()
+}
+
+/// Summed excess (mm) of the readings' errors over their thresholds.
+fn excess_mm(given: &[Given], measured: &[Measured], thresholds: &[f64]) -> f64 {
+    given
+        .iter()
+        .zip(measured)
+        .zip(thresholds)
+        .map(|((g, m), t)| ((m.value * MM_PER_M - g.target_mm).abs() - t).max(0.0))
+        .sum()
 }
 
 fn clamp(w: &mut [f64], l: f64) -> Vec<usize> {
@@ -706,18 +872,32 @@ impl ShapeModel {
         Ok(out)
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn build_terms(
         &self,
         given: &[Given],
         measured: &[Measured],
         x_mm: &[Vec3],
+        weighting: EnergyWeighting,
         warnings: &mut Vec<String>,
         stage: &str,
     ) -> Vec<SegmentTerm> {
         let mut terms = Vec::new();
         for (g, m) in given.iter().zip(measured) {
             match segment_terms(&m.support, x_mm, g.target_mm, g.weight) {
-                Some(t) => terms.extend(t),
+                Some(mut t) => {
+                    if weighting == EnergyWeighting::PerMeasurement {
+                        // sum_e (l_e^2 - lt_e^2)^2 ~ 4 sum_e lt_e^2 (l_e - lt_e)^2 and a
+                        // change D of the whole measurement moves each segment by
+                        // lt_e D / L_t: the energy is ~ 4 D^2 sum_e lt_e^4 / L_t^2.
+                        let l4: f64 = t.iter().map(|s| s.target_sq * s.target_sq).sum();
+                        if l4 > 0.0 && l4.is_finite() {
+                            let c = g.target_mm * g.target_mm / (4.0 * l4);
+                            t.iter_mut().for_each(|s| s.weight *= c);
+                        }
+                    }
+                    terms.extend(t)
+                }
                 None => warnings.push(format!(
                     "{stage}: measurement '{}' has zero length on the current shape and was left out of this round",
                     self.measurement_names[g.index]
@@ -730,10 +910,16 @@ impl ShapeModel {
     /// `E_m` of a shape with its per-segment targets set on that shape (the
     /// energy a round starts from): the paper's objective, evaluated the same
     /// way at every stage, so stages can be compared.
-    fn stage_energy(&self, given: &[Given], measured: &[Measured], x: &[Vec3]) -> f64 {
+    fn stage_energy(
+        &self,
+        given: &[Given],
+        measured: &[Measured],
+        x: &[Vec3],
+        weighting: EnergyWeighting,
+    ) -> f64 {
         let x_mm = to_mm(x);
         let mut ignored = Vec::new();
-        let terms = self.build_terms(given, measured, &x_mm, &mut ignored, "");
+        let terms = self.build_terms(given, measured, &x_mm, weighting, &mut ignored, "");
         measurement_energy(&terms, x_mm.as_flattened(), None)
     }
 
@@ -881,12 +1067,39 @@ impl ShapeModel {
         let t1 = Instant::now();
         let mut step1_runs = Vec::new();
         let mut w = w_start.clone();
-        for round in 0..settings.s {
+        let cont = settings.continuation.filter(|_| settings.s > 0);
+        let rounds = settings.s + cont.map_or(0, |c| c.max_extra_rounds);
+        let thresholds = continuation_thresholds(&given, targets, measurer, cont);
+        let prior = settings.step1_prior_mm.or_else(|| {
+            // Readings with a tolerance only give way to the others if
+            // something pulls the other way: the training Gaussian (MAP).
+            (settings.step1_weighting == EnergyWeighting::PerMeasurement
+                && given
+                    .iter()
+                    .any(|g| targets[g.index].is_some_and(|t| t.tolerance.is_some())))
+            .then_some(settings.reference_tolerance * MM_PER_M)
+        });
+        let mut held = vec![false; self.n_components()];
+        if let Some(k) = settings.step1_components {
+            held.iter_mut().skip(k).for_each(|h| *h = true);
+        }
+        let mut last_excess = f64::INFINITY;
+        for round in 0..rounds {
             let stage = PredictStage::Step1 {
                 run: round,
                 of: settings.s,
             };
-            boundary(observer, stage, settings.stop.max_iters)?;
+            if round < settings.s {
+                boundary(observer, stage, settings.stop.max_iters)?;
+            }
+            if settings.step1_box && round > 0 {
+                for (i, x) in w.iter_mut().enumerate() {
+                    if x.abs() > settings.l {
+                        *x = x.clamp(-settings.l, settings.l);
+                        held[i] = true;
+                    }
+                }
+            }
             let (x, meas);
             let (x_ref, meas_ref) = if round == 0 {
                 (&x_start, &meas_start)
@@ -895,11 +1108,37 @@ impl ShapeModel {
                 meas = self.measure_checked(measurer, &x, &which)?;
                 (&x, &meas)
             };
-            let terms = self.build_terms(&given, meas_ref, &to_mm(x_ref), &mut warnings, "step 1");
+            if let Some(c) = cont {
+                let excess = excess_mm(&given, meas_ref, &thresholds);
+                if round >= settings.s {
+                    if excess == 0.0
+                        || excess > 0.95 * last_excess
+                        || t1.elapsed().as_secs_f64() > c.time_budget_s
+                    {
+                        break;
+                    }
+                    boundary(observer, stage, settings.stop.max_iters)?;
+                }
+                last_excess = excess;
+            }
+            let terms = self.build_terms(
+                &given,
+                meas_ref,
+                &to_mm(x_ref),
+                settings.step1_weighting,
+                &mut warnings,
+                "step 1",
+            );
             if terms.is_empty() {
                 break;
             }
-            let obj = self.localise(&terms);
+            let mut obj = self.localise(&terms);
+            if let Some(tau) = prior {
+                obj = obj.with_prior(tau * tau);
+            }
+            if held.iter().any(|&h| h) {
+                obj = obj.with_held(held.clone());
+            }
             let watched = Watched::new(&obj, observer, stage, settings.stop.max_iters);
             let run = minimise(&watched, w.clone(), &settings.stop, settings.step1_solver);
             if watched.cancelled.get() {
@@ -920,8 +1159,8 @@ impl ShapeModel {
         let mut x1 = self.shape_unchecked(&w);
         let mut meas1 = self.measure_checked(measurer, &x1, &which)?;
         let (err_start, err1) = (
-            self.stage_energy(&given, &meas_start, &x_start),
-            self.stage_energy(&given, &meas1, &x1),
+            self.stage_energy(&given, &meas_start, &x_start, settings.step1_weighting),
+            self.stage_energy(&given, &meas1, &x1, settings.step1_weighting),
         );
         if err1 > err_start || err1.is_nan() {
             warnings.push(format!(
@@ -939,12 +1178,15 @@ impl ShapeModel {
         let mut step2_runs = Vec::new();
         let reference_mm = to_mm(&x1);
         let mut x_mm: Vec<f64> = reference_mm.as_flattened().to_vec();
-        for round in 0..settings.s {
+        let mut last_excess = f64::INFINITY;
+        for round in 0..rounds {
             let stage = PredictStage::Step2 {
                 run: round,
                 of: settings.s,
             };
-            boundary(observer, stage, settings.step2_stop.max_iters)?;
+            if round < settings.s {
+                boundary(observer, stage, settings.step2_stop.max_iters)?;
+            }
             let p_mm: Vec<Vec3> = x_mm.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
             let meas;
             let meas_ref = if round == 0 {
@@ -953,7 +1195,27 @@ impl ShapeModel {
                 meas = self.measure_checked(measurer, &to_m(&p_mm), &which)?;
                 &meas
             };
-            let terms = self.build_terms(&given, meas_ref, &p_mm, &mut warnings, "step 2");
+            if let Some(c) = cont {
+                let excess = excess_mm(&given, meas_ref, &thresholds);
+                if round >= settings.s {
+                    if excess == 0.0
+                        || excess > 0.95 * last_excess
+                        || t2.elapsed().as_secs_f64() > c.time_budget_s
+                    {
+                        break;
+                    }
+                    boundary(observer, stage, settings.step2_stop.max_iters)?;
+                }
+                last_excess = excess;
+            }
+            let terms = self.build_terms(
+                &given,
+                meas_ref,
+                &p_mm,
+                settings.step2_weighting,
+                &mut warnings,
+                "step 2",
+            );
             if terms.is_empty() {
                 break;
             }
@@ -994,8 +1256,8 @@ impl ShapeModel {
             ));
         }
         let mut meas2 = self.measure_checked(measurer, &x2, &which)?;
-        let err2 = self.stage_energy(&given, &meas2, &x2);
-        let err1 = self.stage_energy(&given, &meas1, &x1);
+        let err2 = self.stage_energy(&given, &meas2, &x2, settings.step2_weighting);
+        let err1 = self.stage_energy(&given, &meas1, &x1, settings.step2_weighting);
         if err2 > err1 || err2.is_nan() {
             warnings.push(format!(
                 "step 2 ended with a higher measurement energy than step 1 (E_m {err2:.4e} vs {err1:.4e} mm^4): kept the step-1 shape"

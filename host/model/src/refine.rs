@@ -505,6 +505,10 @@ pub struct WeightObjective {
     base: Vec<f64>,
     /// The terms (targets, weights and axes; their points are not used after construction).
     terms: Vec<SegmentTerm>,
+    /// Coefficient of the Gaussian prior term `prior |w|^2` (0: none).
+    prior: f64,
+    /// `held[i]`: weight i does not move (its gradient is zeroed); empty: all move.
+    held: Vec<bool>,
 }
 
 impl WeightObjective {
@@ -544,7 +548,26 @@ impl WeightObjective {
             rows,
             base,
             terms,
+            prior: 0.0,
+            held: Vec::new(),
         }
+    }
+
+    /// Adds the Gaussian prior of the normalised weights, `prior |w|^2`, to
+    /// the objective (a MAP estimate when the measurement energy is a
+    /// log-likelihood, see [`crate::PredictSettings::step1_prior_mm`]).
+    pub fn with_prior(mut self, prior: f64) -> Self {
+        self.prior = prior;
+        self
+    }
+
+    /// Holds the weights with `held[i] = true` at their start values (their
+    /// gradient is reported as zero, so L-BFGS, whose steps are combinations
+    /// of gradients, never moves them). `held` has K entries.
+    pub fn with_held(mut self, held: Vec<bool>) -> Self {
+        debug_assert_eq!(held.len(), self.k);
+        self.held = held;
+        self
     }
 }
 
@@ -575,6 +598,15 @@ impl Objective for WeightObjective {
                 if gc != 0.0 {
                     axpy(gc, &r3[c * k..(c + 1) * k], grad);
                 }
+            }
+        }
+        if self.prior != 0.0 {
+            e += self.prior * dot(w, w);
+            axpy(2.0 * self.prior, w, grad);
+        }
+        for (g, &h) in grad.iter_mut().zip(&self.held) {
+            if h {
+                *g = 0.0;
             }
         }
         e
@@ -770,6 +802,8 @@ mod tests {
             rows,
             base,
             terms,
+            prior: 0.3,
+            held: Vec::new(),
         };
         let w = vec![0.3, -0.7, 1.1];
         let mut g = vec![0.0; k];
@@ -788,6 +822,32 @@ mod tests {
                 "{j}: {fd} vs {}",
                 g[j]
             );
+        }
+    }
+
+    /// Held weights get a zero gradient and L-BFGS leaves them where they were.
+    #[test]
+    fn held_weights_do_not_move() {
+        let (nl, k) = (2, 3);
+        let mut s = 5;
+        let rows: Vec<f64> = (0..3 * nl * k).map(|_| 10.0 * lcg(&mut s)).collect();
+        let base: Vec<f64> = (0..3 * nl).map(|_| 100.0 * lcg(&mut s)).collect();
+        let terms = vec![SegmentTerm {
+            p0: SupportPoint::vertex(0),
+            p1: SupportPoint::vertex(1),
+            axis: None,
+            target_sq: 2500.0,
+            weight: 1.0,
+        }];
+        let obj = WeightObjective::new(k, &rows, &base, terms).with_held(vec![false, true, false]);
+        let w0 = vec![0.5, 1.5, -0.5];
+        let mut g = vec![0.0; k];
+        let f0 = obj.eval(&w0, &mut g);
+        assert_eq!(g[1], 0.0);
+        for solver in BOTH {
+            let (w, info) = minimise(&obj, w0.clone(), &StopRule::default(), solver).unwrap();
+            assert_eq!(w[1], 1.5, "{solver:?}");
+            assert!(info.cost_end < f0, "{solver:?}: {info:?}");
         }
     }
 
