@@ -13,9 +13,11 @@
 //! Then the same with novice-operator noise (1 cm SD per reading, seeded).
 //! Three bodies, six sessions.
 //!
-//! Why not call `tapeshape demo` itself: its customer is an ANSUR II person,
-//! whose body is unknown; the demo's path (harness + tape + `record`) is
-//! reproduced here with a generated body instead.
+//! `tapeshape demo` itself cannot take a known body (its customer is an
+//! ANSUR II person, whose body is unknown), so the demo's path (harness +
+//! tape + `record`) is reproduced here with generated bodies; a second test
+//! runs the real `tapeshape demo --headless` binary and checks its stored
+//! session against the simulated person's readings and its exported files.
 //!
 //! `cargo test -p tapeshape-tests --test demo_e2e -- --ignored --nocapture`
 //! runs the measurement behind the bounds (20 held-out bodies, without the
@@ -318,6 +320,80 @@ fn known_bodies_through_tape_firmware_link_store_estimate_and_export() {
     assert_eq!(sessions.len(), 2 * E2E_BODIES);
     for s in sessions {
         assert_eq!(s.current_readings as usize, 9, "{}", s.session.customer_id);
+    }
+}
+
+/// The real `tapeshape demo --headless` (its customer is an ANSUR II
+/// test-split person, whose body is unknown, so no vertex distance here):
+/// the session it stores holds exactly the person's readings, and the body
+/// it exports parses and fits them.
+#[test]
+fn the_headless_demo_binary_stores_every_reading_and_exports_a_body_that_fits_them() {
+    let bin = tapeshape_tests::tapeshape_binary();
+    let dir = tempfile::tempdir().unwrap();
+    let (data, exports) = (dir.path().join("data"), dir.path().join("exports"));
+    let seed = 3;
+    let out = std::process::Command::new(&bin)
+        .args(["demo", "--headless", "--set", "quick", "--speedup", "20"])
+        .args(["--seed", &seed.to_string()])
+        .arg("--data-dir")
+        .arg(&data)
+        .arg("--export-dir")
+        .arg(&exports)
+        .env_remove("TAPESHAPE_DATA_DIR")
+        .output()
+        .expect("running tapeshape demo");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "demo failed: {}\n{stdout}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The store holds exactly the simulated person's readings, once each.
+    let set = tapeshape_engine::measure::MeasurementSet::load("quick").unwrap();
+    let customer = tapeshape::cli::demo::demo_customer(&set, seed).unwrap();
+    let store = Store::open(&data).unwrap();
+    let sessions = store.list_sessions().unwrap();
+    assert_eq!(sessions.len(), 1);
+    let detail = store.open_session(sessions[0].session.id).unwrap();
+    let stored: Vec<(String, u32)> = detail
+        .readings
+        .iter()
+        .map(|r| (r.measurement.clone(), r.device.value_tenth_mm))
+        .collect();
+    assert_eq!(
+        stored, customer.values,
+        "every reading stored once, in order"
+    );
+    // The export: the three meshes and the report, in the export folder or
+    // a folder of its own beneath it.
+    fn walk(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(&p, out);
+            } else {
+                out.push(p);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(&exports, &mut files);
+    files.sort();
+    let ext = |p: &std::path::PathBuf| p.extension().unwrap().to_string_lossy().into_owned();
+    let by_ext = |e: &str| files.iter().find(|p| ext(p) == e).cloned().unwrap();
+    assert_eq!(files.len(), 4, "{files:?}");
+    let ordered = [by_ext("obj"), by_ext("ply"), by_ext("glb"), by_ext("json")];
+    let ply = tapeshape_mesh::io::read_ply(&ordered[1], Default::default()).unwrap();
+    check_files(&ordered, &ply.vertices, &stored);
+    // The body fits the person's readings (the method fits what is given to
+    // well under the model's 5 mm warning level).
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&ordered[3]).unwrap()).unwrap();
+    for m in report["measurements"].as_array().unwrap() {
+        let err = m["error_mm"].as_f64().unwrap();
+        assert!(err.abs() < 5.0, "{}: error {err} mm", m["name"]);
     }
 }
 
