@@ -104,7 +104,7 @@ fn a_flagged_reading_stays_current_until_retaken_or_kept() {
         Some("chest"),
         "flag keeps it current"
     );
-    assert!(a.notice.as_ref().unwrap().1.contains("measure again"));
+    assert!(a.notice.as_ref().unwrap().1.contains("Measure again"));
     // Measured again: the retake replaces the value, the old one is history.
     committed(&mut a, 2, "chest", 9_820);
     checked(&mut a, "chest", 9_820, None);
@@ -162,6 +162,15 @@ fn retake_moves_the_tape_to_the_selected_measurement() {
     let s = a.session.as_ref().unwrap();
     assert_eq!(s.items[1].value, Some(9_900));
     assert_eq!(s.items[1].previous, vec![9_820]);
+    assert!(
+        a.notice
+            .as_ref()
+            .unwrap()
+            .1
+            .contains("99.0 cm (retake; was 98.2 cm)"),
+        "{:?}",
+        a.notice
+    );
     // After the retake the tape goes on with the first one still to take.
     assert_eq!(current(&a).as_deref(), Some("waist"));
 }

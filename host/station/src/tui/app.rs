@@ -841,11 +841,13 @@ fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
             Some('d') if app.screen != Screen::Device => {
                 app.back_to = app.screen;
                 app.screen = Screen::Device;
+                app.notice = None;
                 return;
             }
             Some('h') if app.screen != Screen::History && app.screen != Screen::Estimating => {
                 app.back_to = app.screen;
                 app.screen = Screen::History;
+                app.notice = None;
                 app.history.loading = true;
                 app.history.confirm_delete = None;
                 fx.push(Effect::LoadHistory);
@@ -1442,13 +1444,18 @@ fn on_link(app: &mut App, ev: LinkEvent, fx: &mut Vec<Effect>) {
                 tape_inches: unit_shown == UnitShown::Imperial,
             }));
             let label = s.items[i].info.label.clone();
+            let was = s.items[i].previous.last().copied();
             let shown = match unit_shown {
                 UnitShown::Metric => "",
                 UnitShown::Imperial => " (tape showing inches)",
             };
+            let retake = match was {
+                Some(w) => format!(" (retake; was {})", app.unit.format(w)),
+                None => String::new(),
+            };
             app.note(
                 Level::Info,
-                format!("Stored {label} = {}{shown}", app.unit.format(v)),
+                format!("Stored {label} = {}{retake}{shown}", app.unit.format(v)),
             );
         }
         LinkEvent::Duplicate { .. } | LinkEvent::Pong { .. } => {}
@@ -1533,16 +1540,17 @@ fn on_checked(app: &mut App, name: &str, value_tenth_mm: u32, outcome: CheckOutc
     item.unit_slip = outcome.unit_slip;
     if item.flag.is_some() || item.unit_slip.is_some() {
         item.state = ItemState::Flagged;
-        let msg = item
-            .flag
-            .clone()
-            .or_else(|| item.unit_slip.clone())
-            .unwrap_or_default();
         s.current = Some(i);
         s.selected = i;
+        let label = item.info.label.clone();
+        let what = if item.flag.is_some() {
+            "far off."
+        } else {
+            "unit slip?"
+        };
         app.note(
             Level::Warn,
-            format!("{msg}: measure again, or Enter to keep it"),
+            format!("{label}: {what} Measure again, or Enter to keep it"),
         );
     } else {
         item.state = ItemState::Done;

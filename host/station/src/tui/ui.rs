@@ -117,6 +117,7 @@ fn draw_top(app: &App, frame: &mut Frame, area: Rect) {
         Autopilot::TakenOver => right.push(Span::styled(" DEMO manual", st(app, Role::Dim))),
         Autopilot::Off => {}
     }
+    right.insert(0, Span::raw("  "));
     right.push(Span::raw(" "));
     let rw: u16 = right.iter().map(|s| s.width() as u16).sum();
     let [l, r] = Layout::horizontal([Constraint::Min(1), Constraint::Length(rw)]).areas(area);
@@ -130,10 +131,10 @@ fn draw_top(app: &App, frame: &mut Frame, area: Rect) {
 fn draw_banner(app: &App, frame: &mut Frame, area: Rect) {
     let session_kept = app.session.is_some();
     let banner = match &app.device.connection {
-        Connection::Disconnected(reason) => Some((
+        Connection::Disconnected(_) => Some((
             Role::Bad,
             format!(
-                " TAPE DISCONNECTED ({reason}): reconnecting...{} ",
+                " TAPE DISCONNECTED: reconnecting...{} (d: details) ",
                 if session_kept {
                     " session kept, no reading lost"
                 } else {
@@ -142,9 +143,9 @@ fn draw_banner(app: &App, frame: &mut Frame, area: Rect) {
             ),
         )),
         Connection::Mismatch(m) => Some((Role::Bad, format!(" {m} "))),
-        Connection::WaitingForPort(e) if session_kept => Some((
+        Connection::WaitingForPort(_) if session_kept => Some((
             Role::Bad,
-            format!(" NO TAPE ({e}): plug it in; session kept "),
+            " NO TAPE: plug it in; the session is kept (d: details) ".to_string(),
         )),
         _ => None,
     };
@@ -292,7 +293,10 @@ fn draw_device(app: &App, frame: &mut Frame, area: Rect) {
     lines.push(kv(
         app,
         "link",
-        format!("{} bad frames, {} reconnects", d.bad_frames, d.disconnects),
+        format!(
+            "{} bad frames, {} connections lost",
+            d.bad_frames, d.disconnects
+        ),
     ));
     if let Some(l) = d.live {
         lines.push(kv(app, "live", app.unit.format(l.value_tenth_mm)));
@@ -368,10 +372,8 @@ fn draw_form(app: &App, frame: &mut Frame, area: Rect) {
     }
     lines.push(Line::raw(""));
     let blurb = match BUILTIN_SET_CHOICES.get(f.set_choice) {
-        Some(&"quick") => "quick: 10 tape measurements, a few minutes",
-        Some(&"ansur") => "ansur: the ANSUR II survey's tape measurements",
-        Some(&"paper34") => "paper34: the 34 measurements of Wuhrer & Shu (2013)",
-        _ => "a measurement set file in the format of host/measure/sets/*.toml",
+        Some(name) => set_blurb(name),
+        None => "a measurement set file (TOML, as host/measure/sets/*.toml)".to_string(),
     };
     lines.push(Line::styled(format!("  {blurb}"), st(app, Role::Dim)));
     if let Some(e) = &f.error {
@@ -384,7 +386,9 @@ fn draw_form(app: &App, frame: &mut Frame, area: Rect) {
         st(app, Role::Dim),
     ));
     frame.render_widget(
-        Paragraph::new(lines).block(Block::bordered().title(" New customer ")),
+        Paragraph::new(lines)
+            .wrap(Wrap { trim: false })
+            .block(Block::bordered().title(" New customer ")),
         area,
     );
     if let Some(r) = &app.resume {
@@ -394,7 +398,7 @@ fn draw_form(app: &App, frame: &mut Frame, area: Rect) {
             Line::raw(""),
             Line::from(vec![Span::styled(
                 format!(
-                    " Session {} (customer {}, {}) was not finished:",
+                    " Session {} (customer {}, {}) is not finished:",
                     r.session,
                     r.customer,
                     r.set.as_deref().unwrap_or("no set")
@@ -417,6 +421,34 @@ fn draw_form(app: &App, frame: &mut Frame, area: Rect) {
             popup,
         );
     }
+}
+
+/// "name: N measurements; description" of a built-in set, parsed once.
+fn set_blurb(name: &str) -> String {
+    static BLURBS: std::sync::OnceLock<Vec<(String, String)>> = std::sync::OnceLock::new();
+    let all = BLURBS.get_or_init(|| {
+        BUILTIN_SET_CHOICES
+            .iter()
+            .filter_map(|n| tapeshape_measure::MeasurementSet::builtin(n).ok())
+            .map(|s| {
+                let first = s
+                    .description
+                    .split(". ")
+                    .next()
+                    .unwrap_or("")
+                    .trim()
+                    .to_string();
+                (
+                    s.name.clone(),
+                    format!("{}: {} measurements. {first}", s.name, s.definitions.len()),
+                )
+            })
+            .collect()
+    });
+    all.iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, b)| b.clone())
+        .unwrap_or_else(|| name.to_string())
 }
 
 fn centered(area: Rect, w: u16, h: u16) -> Rect {
@@ -698,7 +730,7 @@ fn draw_result(app: &App, frame: &mut Frame, area: Rect) {
         return;
     };
     let [front, side, right] = Layout::horizontal([
-        Constraint::Length(16),
+        Constraint::Length(20),
         Constraint::Length(12),
         Constraint::Min(30),
     ])
@@ -710,7 +742,7 @@ fn draw_result(app: &App, frame: &mut Frame, area: Rect) {
     frame.render_widget(silhouette(app, &r.silhouettes.side, " side ", side), side);
 
     let [table_area, info] =
-        Layout::vertical([Constraint::Min(4), Constraint::Length(5)]).areas(right);
+        Layout::vertical([Constraint::Min(4), Constraint::Length(7)]).areas(right);
     let u = app.unit;
     let rows: Vec<Row> = r
         .rows
@@ -751,7 +783,18 @@ fn draw_result(app: &App, frame: &mut Frame, area: Rect) {
                 Constraint::Length(6),
             ],
         )
-        .header(Row::new(vec!["measurement", "target", "body", "error"]).style(st(app, Role::Dim)))
+        .header(
+            Row::new(vec![
+                "measurement",
+                "target",
+                "body",
+                match u {
+                    crate::tui::app::DisplayUnit::Cm => "err cm",
+                    crate::tui::app::DisplayUnit::Inch => "err in",
+                },
+            ])
+            .style(st(app, Role::Dim)),
+        )
         .column_spacing(1)
         .block(Block::bordered().title(format!(" Estimate ({:.1} s) ", r.seconds))),
         table_area,
@@ -878,9 +921,10 @@ fn draw_history(app: &App, frame: &mut Frame, area: Rect) {
                 Line::raw(""),
                 Line::styled(
                     format!(
-                        " Delete session {id} ({}, {} readings) for good?",
+                        " Delete session {id} ({}, {} readings, {} retaken) for good?",
                         s.map_or("?", |s| s.session.customer_id.as_str()),
-                        s.map_or(0, |s| s.total_readings)
+                        s.map_or(0, |s| s.current_readings),
+                        s.map_or(0, |s| s.total_readings - s.current_readings)
                     ),
                     st(app, Role::Big),
                 ),
@@ -898,7 +942,7 @@ fn draw_history(app: &App, frame: &mut Frame, area: Rect) {
 }
 
 fn draw_help(app: &App, frame: &mut Frame, area: Rect) {
-    let popup = centered(area, 70, 20);
+    let popup = centered(area, 78, 21);
     frame.render_widget(Clear, popup);
     let k = |key: &'static str, what: &'static str| {
         Line::from(vec![
@@ -910,11 +954,11 @@ fn draw_help(app: &App, frame: &mut Frame, area: Rect) {
         Line::styled(" Measuring", st(app, Role::Title)),
         k(
             "hold",
-            "the tape's hold button stores the reading (Enter: live value)",
+            "the tape's hold button stores the reading (Enter: the live value)",
         ),
         k(
             "up/down",
-            "choose a measurement; r retakes it, s skips the current one",
+            "choose a measurement; r retakes it; s skips the current one",
         ),
         k(
             "u",

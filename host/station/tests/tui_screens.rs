@@ -1,0 +1,344 @@
+//! Every screen rendered into ratatui's `TestBackend` at 80x24 (the
+//! smallest kiosk terminal) and compared with a reviewed snapshot
+//! (`tests/snapshots/`, insta). The app is driven into each state through
+//! `update` only, as the runner drives it. A changed screen fails here
+//! until the new snapshot is reviewed (`cargo insta review`).
+
+mod tui_fixture;
+
+use crossterm::event::KeyCode;
+use ratatui::backend::TestBackend;
+use ratatui::Terminal;
+use tapeshape::link::LinkEvent;
+use tapeshape::store::{Session, SessionId, SessionStatus, SessionSummary};
+use tapeshape::tui::app::{App, Event, ResumeOffer};
+use tapeshape::tui::draw;
+use tapeshape::tui::services::{EstimateEvent, EstimateSummary, ResultRow, Silhouettes, Stage};
+use tapeshape_protocol::Fault;
+use tui_fixture::*;
+
+fn render(app: &App) -> String {
+    let mut t = Terminal::new(TestBackend::new(80, 24)).unwrap();
+    t.draw(|f| draw(app, f)).unwrap();
+    t.backend().to_string()
+}
+
+/// A session with stature and chest taken and waist current.
+fn measuring() -> App {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    take(&mut a, 0, "stature", 17_650);
+    take(&mut a, 1, "chest", 9_820);
+    live(&mut a, 8_374);
+    a
+}
+
+#[test]
+fn new_customer() {
+    let mut a = app(false);
+    connect(&mut a);
+    send(&mut a, [ch('f'), key(KeyCode::Down), ch('3'), ch('4')]);
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn new_customer_custom_set_file_with_error() {
+    let mut a = app(false);
+    send(
+        &mut a,
+        [
+            key(KeyCode::Down),
+            key(KeyCode::Down),
+            key(KeyCode::Left),
+            key(KeyCode::Down),
+            key(KeyCode::Enter),
+        ],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn resume_offer() {
+    let mut a = app(false);
+    connect(&mut a);
+    send(
+        &mut a,
+        [Event::Resumable(ResumeOffer {
+            session: SessionId(12),
+            customer: "c-8f3k2a".into(),
+            set: Some("quick".into()),
+            readings: 4,
+        })],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn measuring_screen() {
+    insta::assert_snapshot!(render(&measuring()));
+}
+
+#[test]
+fn measuring_in_inches() {
+    let mut a = measuring();
+    send(&mut a, [ch('i')]);
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn flagged_reading() {
+    let mut a = measuring();
+    committed(&mut a, 2, "waist", 5_800);
+    checked(
+        &mut a,
+        "waist",
+        5_800,
+        Some("waist 58.0 cm is 6 SD below what stature, chest predict (84.1 +/- 4.3 cm)"),
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn unit_slip() {
+    let mut a = measuring();
+    committed(&mut a, 2, "waist", 3_300);
+    send(
+        &mut a,
+        [Event::Checked {
+            name: "waist".into(),
+            value_tenth_mm: 3_300,
+            outcome: tapeshape::tui::services::CheckOutcome {
+                unit_slip: Some(
+                    "waist 33.0 cm fits 33.0 in (83.8 cm): check the tape's unit".into(),
+                ),
+                ..Default::default()
+            },
+        }],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn disconnected_while_measuring() {
+    let mut a = measuring();
+    unplug(&mut a);
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn device_screen_with_faults() {
+    let mut a = measuring();
+    send(
+        &mut a,
+        [
+            Event::Link(LinkEvent::Fault(Fault::TapeSilent { silent_ms: 3200 })),
+            Event::Link(LinkEvent::Fault(Fault::TapeRecovered)),
+            ch('d'),
+        ],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn device_screen_disconnected() {
+    let mut a = measuring();
+    unplug(&mut a);
+    send(
+        &mut a,
+        [
+            Event::Link(LinkEvent::WaitingForPort {
+                error: "No such file or directory".into(),
+            }),
+            ch('d'),
+        ],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn estimating_progress() {
+    let mut a = measuring();
+    send(
+        &mut a,
+        [
+            ch('e'),
+            Event::Estimate(EstimateEvent::Stage {
+                stage: Stage::Check,
+                fraction: 0.0,
+            }),
+            Event::Estimate(EstimateEvent::Stage {
+                stage: Stage::Start,
+                fraction: 0.01,
+            }),
+            Event::Estimate(EstimateEvent::Stage {
+                stage: Stage::Step1,
+                fraction: 0.42,
+            }),
+        ],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn estimate_refused() {
+    let mut a = measuring();
+    send(
+        &mut a,
+        [
+            ch('e'),
+            Event::Estimate(EstimateEvent::Stage {
+                stage: Stage::Check,
+                fraction: 0.0,
+            }),
+            Event::Estimate(EstimateEvent::Failed(
+                "readings contradict each other: chest 58.0 cm is 9 SD below what stature predicts (98.1 +/- 4.4 cm); re-take these readings".into(),
+            )),
+        ],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+/// A body-like figure in metres (station frame): head, torso, arms, legs
+/// as filled ellipses, sampled on a 1 cm grid. A rendering fixture, not an
+/// estimate.
+fn figure() -> Silhouettes {
+    let parts_front: [(f64, f64, f64, f64); 6] = [
+        (0.0, 1.62, 0.08, 0.11),   // head
+        (0.0, 1.22, 0.17, 0.30),   // torso
+        (-0.24, 1.18, 0.04, 0.28), // right arm
+        (0.24, 1.18, 0.04, 0.28),  // left arm
+        (-0.09, 0.45, 0.07, 0.45), // right leg
+        (0.09, 0.45, 0.07, 0.45),  // left leg
+    ];
+    let parts_side: [(f64, f64, f64, f64); 3] = [
+        (0.01, 1.62, 0.10, 0.11),
+        (0.0, 1.22, 0.12, 0.30),
+        (0.0, 0.45, 0.08, 0.45),
+    ];
+    let sample = |parts: &[(f64, f64, f64, f64)]| {
+        let mut pts = Vec::new();
+        for i in -40..=40 {
+            for k in 0..=180 {
+                let (x, z) = (f64::from(i) * 0.01, f64::from(k) * 0.01);
+                if parts.iter().any(|(cx, cz, rx, rz)| {
+                    ((x - cx) / rx).powi(2) + ((z - cz) / rz).powi(2) <= 1.0
+                }) {
+                    pts.push((x, z));
+                }
+            }
+        }
+        pts
+    };
+    Silhouettes {
+        front: sample(&parts_front),
+        side: sample(&parts_side),
+    }
+}
+
+fn result_app() -> App {
+    let mut a = measuring();
+    send(&mut a, [ch('e')]);
+    send(
+        &mut a,
+        [Event::Estimate(EstimateEvent::Done(Box::new(
+            EstimateSummary {
+                session: SessionId(3),
+                rows: vec![
+                    ResultRow {
+                        name: "stature".into(),
+                        target_mm: 1765.0,
+                        achieved_mm: 1764.6,
+                    },
+                    ResultRow {
+                        name: "chest".into(),
+                        target_mm: 982.0,
+                        achieved_mm: 979.1,
+                    },
+                ],
+                plausibility: "typical body (mahalanobis 6.5), readings typical (1.2)".into(),
+                warnings: vec!["'chest' could not be fitted within 2 mm (error 2.9 mm)".into()],
+                silhouettes: figure(),
+                seconds: 0.41,
+            },
+        )))],
+    );
+    a
+}
+
+#[test]
+fn result_screen() {
+    insta::assert_snapshot!(render(&result_app()));
+}
+
+#[test]
+fn result_screen_exported() {
+    let mut a = result_app();
+    send(
+        &mut a,
+        [
+            ch('x'),
+            Event::Exported(Ok(vec![
+                "/var/lib/tapeshape/exports/c-test-session3.glb".into(),
+                "/var/lib/tapeshape/exports/c-test-session3-report.json".into(),
+            ])),
+        ],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+fn summaries() -> Vec<SessionSummary> {
+    let s = |id: i64, customer: &str, status, n, minute: i64| SessionSummary {
+        session: Session {
+            id: SessionId(id),
+            customer_id: customer.into(),
+            created_at_ms: 1_790_000_000_000 + minute * 60_000,
+            updated_at_ms: 1_790_000_000_000 + minute * 60_000 + 180_000,
+            status,
+            measurement_set: Some("quick".into()),
+            notes: None,
+        },
+        current_readings: n,
+        total_readings: n + 1,
+    };
+    vec![
+        s(3, "c-test", SessionStatus::Open, 2, 30),
+        s(2, "c-8f3k2a", SessionStatus::Done, 9, 20),
+        s(1, "c-0q9z7m", SessionStatus::Abandoned, 4, 10),
+    ]
+}
+
+#[test]
+fn history_screen() {
+    let mut a = measuring();
+    send(
+        &mut a,
+        [ch('h'), Event::History(summaries()), key(KeyCode::Down)],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn history_delete_asks_first() {
+    let mut a = measuring();
+    send(
+        &mut a,
+        [
+            ch('h'),
+            Event::History(summaries()),
+            key(KeyCode::Down),
+            key(KeyCode::Delete),
+        ],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
+#[test]
+fn help_overlay_in_the_demo() {
+    let mut a = app(true);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    // First key takes over, second opens the help.
+    send(&mut a, [ch('?'), ch('?')]);
+    insta::assert_snapshot!(render(&a));
+}

@@ -1,0 +1,119 @@
+#!/usr/bin/env bash
+# Drives the real `tapeshape demo` in a real terminal (tmux, 80x24) the way
+# an operator would: start the demo, take over from the simulated operator,
+# retake a reading, finish, estimate, export, quit, start again and find the
+# session in the history. Each step waits for text on the screen
+# (capture-pane), fails with the screen shown if it does not appear, and
+# saves the screen to $OUT/NN-step.txt.
+#
+# Usage: scripts/tmux-demo.sh [--release]
+# Env:   OUT (captures folder, default target/tmux-demo), TAPESHAPE_BIN
+#        (a built binary; default: cargo build -p tapeshape), STEP_TIMEOUT
+#        (seconds per step, default 60). Needs tmux (apt-get install -y tmux).
+set -euo pipefail
+
+cd "$(dirname "$0")/.."
+profile=debug
+if [[ "${1:-}" == "--release" ]]; then profile=release; fi
+command -v tmux >/dev/null || { echo "tmux is not installed (apt-get install -y tmux)" >&2; exit 2; }
+if [[ -z "${TAPESHAPE_BIN:-}" ]]; then
+    if [[ $profile == release ]]; then cargo build --release -p tapeshape; else cargo build -p tapeshape; fi
+    TAPESHAPE_BIN="$PWD/target/$profile/tapeshape"
+fi
+OUT="${OUT:-$PWD/target/tmux-demo}"
+STEP_TIMEOUT="${STEP_TIMEOUT:-60}"
+mkdir -p "$OUT"
+rm -f "$OUT"/*.txt
+DATA="$(mktemp -d -t tapeshape-tmux-XXXXXX)"
+SESSION="tapeshape-demo-$$"
+trap 'tmux kill-session -t "$SESSION" 2>/dev/null || true; rm -rf "$DATA"' EXIT
+
+screen() { tmux capture-pane -p -t "$SESSION"; }
+save() { screen >"$OUT/$1.txt"; echo "saved $OUT/$1.txt"; }
+fail() {
+    echo "FAILED: $1" >&2
+    echo "---- screen ----" >&2
+    screen >&2 || true
+    exit 1
+}
+# wait_for TEXT [TIMEOUT]: until the screen shows TEXT (fixed string).
+wait_for() {
+    local deadline=$((SECONDS + ${2:-$STEP_TIMEOUT}))
+    until screen | grep -qF -- "$1"; do
+        ((SECONDS < deadline)) || fail "no '$1' on the screen after ${2:-$STEP_TIMEOUT} s"
+        sleep 0.2
+    done
+}
+keys() { tmux send-keys -t "$SESSION" "$@"; }
+start_demo() {
+    # remain-on-exit keeps the pane after the program ends, to read its last words.
+    tmux new-session -d -s "$SESSION" -x 80 -y 24 \
+        "TERM=xterm-256color '$TAPESHAPE_BIN' --data-dir '$DATA' demo --speedup 3"
+    tmux set-option -t "$SESSION" remain-on-exit on >/dev/null
+}
+
+echo "1. start the demo (data in $DATA)"
+start_demo
+wait_for "DEMO autopilot"
+wait_for "Measuring"
+save 01-autopilot-measuring
+
+echo "2. take over once two readings are stored"
+wait_for "2 of 9 taken"
+keys Space
+wait_for "You have the keyboard"
+wait_for "DEMO manual"
+save 02-taken-over
+
+echo "3. retake the reading above the current one"
+keys Up
+keys r
+wait_for "Retake"
+keys m
+wait_for "(retake; was"
+save 03-retaken
+
+echo "4. measure the rest with the simulated tape"
+for _ in $(seq 1 20); do
+    if screen | grep -qF "Every measurement is taken"; then break; fi
+    if screen | grep -qF "Enter to keep"; then keys Enter; fi
+    keys m
+    sleep 1.5
+done
+wait_for "Every measurement is taken"
+save 04-all-taken
+
+echo "5. estimate"
+keys e
+wait_for "Estimate ("
+save 05-result
+
+echo "6. export"
+keys x
+wait_for "exported"
+save 06-exported
+ls "$DATA/exports" | grep -q '\.glb$' || fail "no .glb in $DATA/exports"
+ls "$DATA/exports" | grep -q 'report\.json$' || fail "no report in $DATA/exports"
+
+echo "7. quit"
+keys q
+keys q
+wait_for "Pane is dead"
+save 07-quit
+tmux kill-session -t "$SESSION"
+
+echo "8. start again and find the session in the history"
+start_demo
+wait_for "tape:"
+keys Space        # take over at once
+wait_for "You have the keyboard"
+keys h
+wait_for "Sessions ("
+save 08-history
+screen | grep -E '^\S*│1 +c-[0-9a-z]{6} +quick +done +9 ' >/dev/null \
+    || screen | grep -E '1 +c-[0-9a-z]{6} +quick +done +9 ' >/dev/null \
+    || fail "session 1 (done, 9 readings) is not in the history"
+keys q
+keys q
+wait_for "Pane is dead"
+echo "ok: captures in $OUT"
