@@ -894,8 +894,31 @@ impl Engine {
         name: &str,
         others: &[(&str, f64)],
     ) -> Result<ReadingPrediction, PredictError> {
+        self.predict_reading_with_tolerance(name, others, None)
+    }
+
+    /// [`Engine::predict_reading`] with every reading's error (the others'
+    /// and `name`'s own) taken as `tolerance` metres instead of each
+    /// measurement's ISO 20685-1 class: for an operator whose readings are
+    /// known to be less exact (a novice: about 1 cm), so that honest
+    /// readings are not judged by a tape expert's precision. `None` is
+    /// [`Engine::predict_reading`]. Errors also for a tolerance that is not
+    /// a positive finite length.
+    pub fn predict_reading_with_tolerance(
+        &self,
+        name: &str,
+        others: &[(&str, f64)],
+        tolerance: Option<f64>,
+    ) -> Result<ReadingPrediction, PredictError> {
+        if let Some(t) = tolerance {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(PredictError::BadValue(format!(
+                    "the readings' tolerance is {t} m: it must be a positive length"
+                )));
+            }
+        }
         let j = self.set.index_of(name).ok_or_else(|| self.unknown(name))?;
-        let noise = |k: usize| self.set.definitions[k].tolerance.mm() / 1000.0;
+        let noise = |k: usize| tolerance.unwrap_or(self.set.definitions[k].tolerance.mm() / 1000.0);
         let mut observed = Vec::with_capacity(others.len());
         for &(n, v) in others {
             let k = self.set.index_of(n).ok_or_else(|| self.unknown(n))?;
