@@ -252,11 +252,31 @@ fn check_files(files: &[std::path::PathBuf], vertices: &[Vec3], stored: &[(Strin
     assert!(mean_distance_mm(&obj.vertices, vertices) < 1e-3);
     let ply = read_ply(&files[1], ReadOptions::default()).expect("PLY parses");
     assert_eq!(ply.vertices, vertices);
+    // GLB container: magic, version 2, total length, 4-byte aligned chunks.
+    let glb = std::fs::read(&files[2]).unwrap();
+    let word = |at: usize| u32::from_le_bytes(glb[at..at + 4].try_into().unwrap()) as usize;
+    assert_eq!(&glb[..4], b"glTF");
+    assert_eq!(word(4), 2);
+    assert_eq!(word(8), glb.len());
+    let json_len = word(12);
+    assert_eq!(&glb[16..20], b"JSON");
+    assert_eq!(json_len % 4, 0);
+    assert_eq!(&glb[24 + json_len..28 + json_len], b"BIN\0");
+    assert_eq!(word(20 + json_len) % 4, 0);
+    assert_eq!(28 + json_len + word(20 + json_len), glb.len());
     let (doc, buffers, _) = gltf::import(&files[2]).expect("GLB parses (gltf crate)");
     let prim = doc.meshes().next().unwrap().primitives().next().unwrap();
     let reader = prim.reader(|b| Some(&buffers[b.index()]));
     let pos: Vec<[f32; 3]> = reader.read_positions().unwrap().collect();
     assert_eq!(pos.len(), vertices.len());
+    assert_eq!(reader.read_normals().unwrap().count(), vertices.len());
+    // The POSITION accessor's min/max are those of the positions.
+    let bb = prim.bounding_box();
+    for k in 0..3 {
+        let lo = pos.iter().map(|p| p[k]).fold(f32::INFINITY, f32::min);
+        let hi = pos.iter().map(|p| p[k]).fold(f32::NEG_INFINITY, f32::max);
+        assert_eq!((bb.min[k], bb.max[k]), (lo, hi), "axis {k}");
+    }
     // glTF frame: (x, y, z)_station -> (-x, z, y); the body stands on y = 0.
     for (p, v) in pos.iter().zip(vertices).step_by(97) {
         assert!((p[0] as f64 + v[0]).abs() < 1e-5 && (p[1] as f64 - v[2]).abs() < 1e-5);
