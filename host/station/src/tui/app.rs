@@ -1256,6 +1256,7 @@ fn start_estimate(app: &mut App, fx: &mut Vec<Effect>, then_export: bool) {
     };
     app.after_open = then_export.then_some(AfterOpen::Export);
     app.screen = Screen::Estimating;
+    app.notice = None;
     fx.push(Effect::StartEstimate(EstimateJob {
         session: s.id,
         readings,
@@ -1579,6 +1580,7 @@ fn on_estimate(app: &mut App, ev: EstimateEvent, fx: &mut Vec<Effect>) {
             let session = summary.session;
             app.result = Some(*summary);
             app.exported = None;
+            app.notice = None;
             if app.screen == Screen::Estimating {
                 app.screen = Screen::Result;
             }

@@ -153,7 +153,8 @@ impl SimOperator {
         match app.screen {
             Screen::NewCustomer => {
                 if app.resume.is_some() {
-                    return Some(KeyCode::Char('n'));
+                    // The same customer is still there: carry on.
+                    return Some(KeyCode::Char('y'));
                 }
                 if !self.sex_set {
                     if app.form.field != FormField::Sex {

@@ -758,13 +758,10 @@ fn draw_result(app: &App, frame: &mut Frame, area: Rect) {
                 Cell::from(label.chars().take(18).collect::<String>()),
                 Cell::from(u.format_mm(row.target_mm)),
                 Cell::from(u.format_mm(row.achieved_mm)),
-                Cell::from(format!(
-                    "{:+.1}",
-                    match u {
-                        crate::tui::app::DisplayUnit::Cm => err / 10.0,
-                        crate::tui::app::DisplayUnit::Inch => err / 25.4,
-                    }
-                ))
+                Cell::from(match u {
+                    crate::tui::app::DisplayUnit::Cm => format!("{err:+.1}"),
+                    crate::tui::app::DisplayUnit::Inch => format!("{:+.2}", err / 25.4),
+                })
                 .style(if err.abs() > 10.0 {
                     st(app, Role::Warn)
                 } else {
@@ -789,7 +786,7 @@ fn draw_result(app: &App, frame: &mut Frame, area: Rect) {
                 "target",
                 "body",
                 match u {
-                    crate::tui::app::DisplayUnit::Cm => "err cm",
+                    crate::tui::app::DisplayUnit::Cm => "err mm",
                     crate::tui::app::DisplayUnit::Inch => "err in",
                 },
             ])
