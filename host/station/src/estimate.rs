@@ -518,10 +518,11 @@ pub fn export(
         source,
     })?;
     let stem = file_stem(session);
-    let mut formats = formats.to_vec();
-    formats.dedup();
     let mut written = Vec::new();
-    for f in formats {
+    for (i, &f) in formats.iter().enumerate() {
+        if formats[..i].contains(&f) {
+            continue; // asked twice: written once
+        }
         let path = folder.join(format!("{stem}.{}", f.ext()));
         let r = match f {
             MeshFormat::Obj => write_obj(&estimate.mesh, &path),
@@ -709,8 +710,16 @@ mod tests {
         assert!(json["plausibility"]["readings"].is_string());
         assert!(json["timings"]["total_ms"].as_f64().unwrap() > 0.0);
         assert_eq!(json["files"].as_array().unwrap().len(), 3);
-        // Exporting again replaces the files (same names, still 4).
-        export(&est, &session, &folder, &[MeshFormat::Glb]).unwrap();
+        // Exporting again replaces the files (same names, still 4); a format
+        // asked twice is written once.
+        let again = export(
+            &est,
+            &session,
+            &folder,
+            &[MeshFormat::Glb, MeshFormat::Obj, MeshFormat::Glb],
+        )
+        .unwrap();
+        assert_eq!(again.len(), 3);
         assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 4);
     }
 
