@@ -12,7 +12,15 @@
 //! # ISO 20685-1 pass shares for quick and ansur (generated bodies and ANSUR test subjects)
 //! cargo run --release -p tapeshape-engine --example predict_eval -- iso \
 //!     --heldout /work/out/held60s2.tsd --n 50 --ansur 100 --subsets 3 [--model FILE] [--l 3]
+//! # why a reading misses: start / step 1 / step 2 values and the L-BFGS runs of
+//! # every failing prediction (held-out bodies, or ANSUR test subjects without --heldout)
+//! cargo run --release -p tapeshape-engine --example predict_eval -- diag \
+//!     [--heldout FILE] --n 10 --set quick [--bodies 0,3] [--all 1]
 //! ```
+//!
+//! Every experiment takes the prediction settings as flags (see
+//! `settings_from_args`): `--paper` for the paper's exact pipeline, and
+//! `--w1`, `--prior`, `--k1`, `--box`, `--cont`, `--l`, `--lambda`, `--s`.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -195,6 +203,8 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 ms.sqrt() * 1000.0
             );
         }
+        // Per-body vertex distance of feature analysis, for the paired comparison.
+        let mut vd_fa: Vec<f64> = Vec::new();
         for (method, s) in [
             ("feature analysis alone (start)", 0usize),
             ("full (start + steps 1, 2)", 3),
@@ -274,6 +284,21 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 mean(&rms),
                 mean(&tt)
             );
+            if s == 0 {
+                vd_fa = vd.clone();
+            } else if vd_fa.len() == vd.len() && vd.len() > 1 {
+                // Paired: the same bodies, so the body-to-body spread cancels.
+                let d: Vec<f64> = vd.iter().zip(&vd_fa).map(|(a, b)| a - b).collect();
+                let md = mean(&d);
+                let sd =
+                    (d.iter().map(|x| (x - md).powi(2)).sum::<f64>() / (d.len() - 1) as f64).sqrt();
+                println!(
+                    "| {label} | paired: full minus feature analysis, per body | | | | | {md:+.3} +- {:.3} (SE); closer on {}/{} bodies | | | |",
+                    sd / (d.len() as f64).sqrt(),
+                    d.iter().filter(|x| **x < 0.0).count(),
+                    d.len()
+                );
+            }
             if !vd1.is_empty() {
                 println!(
                     "| {label} | step-1 shape of the full run (inside the PCA space) | | | | | {:.2} (RMS {:.2}) | | | |",
@@ -565,9 +590,19 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-/// Prediction settings from `--l`, `--lambda`, `--s` (defaults: the station's).
+/// Prediction settings from the flags (defaults: the station's):
+/// `--paper` (start from the paper's exact pipeline), `--l`, `--lambda`,
+/// `--s`, `--w1`/`--w2` (`paper` or `per-measurement` energy weighting),
+/// `--prior TAU_MM` (MAP step 1), `--k1 K` (step 1 moves the first K
+/// components only), `--box on|off`, `--cont N|off` (continuation rounds),
+/// `--iters1`/`--iters2` (L-BFGS iteration caps).
 fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::error::Error>> {
-    let mut s = PredictSettings::default();
+    // --paper: the paper's exact pipeline (PredictSettings::paper()).
+    let mut s = if args.iter().any(|a| a == "--paper") {
+        PredictSettings::paper()
+    } else {
+        PredictSettings::default()
+    };
     if let Some(v) = arg(args, "--l") {
         s.l = v.parse()?;
     }

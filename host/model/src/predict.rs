@@ -12,6 +12,16 @@
 //! 3. **Step 2.** `s` rounds of the same over the vertex positions with
 //!    `(1 - lambda) E_m + lambda E_s`, `E_s` measured from the step-1 shape.
 //!
+//! [`PredictSettings::paper`] runs exactly that. The default departs in how
+//! step 1 weighs the readings ([`EnergyWeighting::PerMeasurement`]: the
+//! paper's quartic energy weighs a 1 mm stature error ~1e5 times a 1 mm
+//! error of a 30-segment girth, so its step 1 stops at the iteration cap with
+//! small girths 5-15 mm off), clamps inside step 1 and refits the rest
+//! (`step1_box`), and adds rounds while a reading misses half its allowable
+//! error ([`Continuation`]); readings with a tolerance make step 1 a MAP
+//! estimate under the training Gaussian (`step1_prior_mm`). Why and the
+//! measured effect: `docs/prediction.md`, `docs/results/predict-iso.md`.
+//!
 //! The optimiser works in millimetres (see the crate docs). A measurement's
 //! energy terms are weighted by `c = (reference_tolerance / tolerance)^2`
 //! (1 for a reading without tolerance): since `(l^2 - l_t^2)^2 ~ 4 l^2 (l - l_t)^2`,
@@ -155,7 +165,14 @@ pub struct PredictSettings {
     /// the normalised weights, `tau^2 |w|^2` (tau in mm), to `E_m`, so with
     /// [`EnergyWeighting::PerMeasurement`] step 1 minimises
     /// `sum_j (error_j / tau)^2 + |w|^2` (readings with noise tau mm).
-    /// `None` (the paper): `E_m` alone.
+    /// `None` (the paper): `E_m` alone, except that with per-measurement
+    /// weighting a reading with a tolerance brings in the prior with the
+    /// reference tolerance (else its tolerance would mean nothing once step 1
+    /// converges). Not the default for exact readings: `Some(1.0)` brought
+    /// the mean vertex distance on 50 held-out bodies from 13.91 to 13.79 mm
+    /// (feature analysis 13.86), within one standard error, and moved an
+    /// in-family synthetic body away from the truth (step 2 then fills the
+    /// residuals with local deformation); `docs/results/predict-sreal.md`.
     #[serde(default)]
     pub step1_prior_mm: Option<f64>,
     /// `Some(k)`: step 1 moves only the first k PCA components (the rest keep
@@ -259,6 +276,7 @@ impl PredictSettings {
     pub fn paper() -> Self {
         Self {
             step1_weighting: EnergyWeighting::Paper,
+            step1_prior_mm: None,
             step1_box: false,
             continuation: None,
             ..Self::default()

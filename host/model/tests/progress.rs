@@ -59,11 +59,17 @@ fn progress_is_monotone_covers_every_stage_and_ends_at_one() {
         })
         .map(|p| p.stage)
         .collect();
+    // Continuation rounds (run >= s) are announced too, one per L-BFGS run.
     let s = settings.s;
-    let mut expected: Vec<PredictStage> = (0..s)
+    let (n1, n2) = (
+        observed.report.step1_runs.len(),
+        observed.report.step2_runs.len(),
+    );
+    assert!(n1 >= s && n2 >= s, "{n1} and {n2} runs for s = {s}");
+    let mut expected: Vec<PredictStage> = (0..n1)
         .map(|run| PredictStage::Step1 { run, of: s })
         .collect();
-    expected.extend((0..s).map(|run| PredictStage::Step2 { run, of: s }));
+    expected.extend((0..n2).map(|run| PredictStage::Step2 { run, of: s }));
     // The first in-run report (evaluation 0) has the same shape as the
     // boundary's; keep one per stage.
     let mut dedup = boundaries.clone();
@@ -189,8 +195,9 @@ fn fraction_is_monotone_over_synthetic_reports() {
         evaluations: 0,
         max_iterations: 0,
     }];
+    // Runs of..of + 2 are continuation rounds: the fraction holds there.
     for step in 0..2 {
-        for run in 0..of {
+        for run in 0..of + 2 {
             for evaluations in [0, 1, 10, 100, 129, 130, 500, 10_000] {
                 let stage = if step == 0 {
                     PredictStage::Step1 { run, of }
