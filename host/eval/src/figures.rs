@@ -43,6 +43,19 @@ pub fn common_region(meshes: &[&[Vec3]]) -> (Vec3, Vec3) {
     (lo, hi)
 }
 
+/// `region` grown by `fraction` of its size on every side (so that a
+/// figure framed on the true bodies leaves room for near misses, while a
+/// wildly wrong result is cut at the panel's edge instead of shrinking
+/// every body to a dot).
+pub fn expand(region: (Vec3, Vec3), fraction: f64) -> (Vec3, Vec3) {
+    let (lo, hi) = region;
+    let d = [0, 1, 2].map(|k| (hi[k] - lo[k]) * fraction);
+    (
+        [0, 1, 2].map(|k| lo[k] - d[k]),
+        [0, 1, 2].map(|k| hi[k] + d[k]),
+    )
+}
+
 /// Per-vertex signed distance (mm) of `pred` from `truth` (both `V`
 /// vertices, metres, same topology): the displacement of each vertex from
 /// its counterpart projected on the true body's outward vertex normal, so

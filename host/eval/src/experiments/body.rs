@@ -159,13 +159,13 @@ dimensions: 14 lengths, 4 planar circumferences and 4 knee/arm circumferences wh
 }
 
 const READING: &str = "**How the paper's definitions are read.** N(mu, Sigma) is fitted to the training bodies' measurements \
-(the informative ones, metres). **S_close**: 200 draws of N(mu, Sigma). **S_k** (k = 2, 4): the paper's \
-\"points on the ellipsoidal surface x^T Sigma^-1 x where x = mu + k Sigma_d\" does not parse literally; we take its intent \
-(\"the larger k, the farther from the training set\"): x = mu + k L u with L L^T = Sigma (Cholesky) and u uniform on the unit \
-sphere, i.e. 200 points at Mahalanobis distance exactly k from the mean. **S_real**: the held-out bodies measured digitally. \
-**Error** of one result in one dimension = |value measured on the result - input value| in mm (a knee or arm circumference: \
-the sum over its 4 geodesics); a table cell averages over all dimensions and all samples. Every method gets all informative \
-measurements. Feature analysis is the paper's (Allen et al.): w = B [P; 1], not clamped.";
+(the informative ones, metres). **S_close**: 200 draws of N(mu, Sigma). **S_k** (k = 2, 4): two readings of the paper's \
+\"points on the ellipsoidal surface x^T Sigma^-1 x where x = mu + k Sigma_d\": S_2 and S_4 = 200 points at Mahalanobis distance \
+exactly k (x = mu + k L u, L L^T = Sigma, u uniform on the unit sphere; the method notes' reading), and S_2' and S_4' = 200 points \
+on the ellipsoid through mu + k sigma (the literal reading; see `body-synthetic`). **S_real**: the held-out bodies measured \
+digitally. **Error** of one result in one dimension = |value measured on the result - input value| in mm (a knee or arm \
+circumference: the sum over its 4 geodesics); a table cell averages over all dimensions and all samples. Every method gets all \
+informative measurements. Feature analysis is the paper's (Allen et al.): w = B [P; 1], not clamped.";
 
 const METRICS: &str = "**Beyond the paper.** *Implausible*: share of results whose normalised PCA weights (the result projected \
 onto the PCA of the training bodies; the leading components that explain 99 % of the training variance) have a chi-square quantile >= 0.999 (Mahalanobis distance beyond what 99.9 % \
@@ -501,13 +501,7 @@ pub(crate) fn signed_figure(
         let Some(truth) = case.truth.as_ref().filter(|_| case.keep) else {
             continue;
         };
-        let mut all: Vec<&[[f64; 3]]> = vec![truth.as_slice()];
-        for r in results {
-            if let Some(v) = &r[ci].vertices {
-                all.push(v.as_slice());
-            }
-        }
-        let region = common_region(&all);
+        let region = crate::figures::expand(common_region(&[truth.as_slice()]), 0.12);
         let mut panels = Vec::new();
         for r in results {
             match &r[ci].vertices {

@@ -16,7 +16,7 @@ use tapeshape_engine::measure::MeasurementSet;
 use super::body::{checks_text, signed_figure};
 use super::common::{informative, run_all, summarise, training_data, Case, Dimensions, Reference};
 use super::{beats, population, recipe, train, EvalError, Options, Outcome, Params, Roster};
-use crate::figures::{body_views, common_region, grid, label, save, Paint};
+use crate::figures::{body_views, common_region, expand, grid, label, save, Paint};
 use crate::report::{Cell, Report, Table};
 
 /// Parameters: l = 3 (the shapes are not represented by the training
@@ -229,11 +229,10 @@ pub fn run(opts: &Options, roster: &Roster) -> Result<Outcome, EvalError> {
 
     // The paper's figure: rows true / ours / SGPLVM / feature analysis.
     let topo = data.topology.clone();
-    let mut all: Vec<&[[f64; 3]]> = cases.iter().filter_map(|c| c.truth.as_deref()).collect();
-    for r in &res {
-        all.extend(r.iter().filter_map(|o| o.vertices.as_deref()));
-    }
-    let region = common_region(&all);
+    // Framed on the true bodies: a result far outside the shape space (as
+    // feature analysis gives here) is cut at the panel edge.
+    let truths: Vec<&[[f64; 3]]> = cases.iter().filter_map(|c| c.truth.as_deref()).collect();
+    let region = expand(common_region(&truths), 0.12);
     let mut rows = Vec::new();
     let truth_panels = cases
         .iter()
