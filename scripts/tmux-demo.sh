@@ -2,7 +2,8 @@
 # Drives the real `tapeshape demo` in a real terminal (tmux, 80x24) the way
 # an operator would: start the demo, take over from the simulated operator,
 # retake a reading, finish, estimate, export, quit, start again and find the
-# session in the history. Each step waits for text on the screen
+# session in the history; then kill the program mid-session (SIGKILL) and
+# check that the next start offers to resume it with its readings. Each step waits for text on the screen
 # (capture-pane), fails with the screen shown if it does not appear, and
 # saves the screen to $OUT/NN-step.txt.
 #
@@ -25,8 +26,11 @@ STEP_TIMEOUT="${STEP_TIMEOUT:-60}"
 mkdir -p "$OUT"
 rm -f "$OUT"/*.txt
 DATA="$(mktemp -d -t tapeshape-tmux-XXXXXX)"
-SESSION="tapeshape-demo-$$"
-trap 'tmux kill-session -t "$SESSION" 2>/dev/null || true; rm -rf "$DATA"' EXIT
+SESSION="tapeshape-demo"
+# A tmux server of its own (-L), so nothing here touches anyone else's tmux.
+SOCKET="tapeshape-demo-$$"
+tmux() { command tmux -L "$SOCKET" "$@"; }
+trap 'tmux kill-server 2>/dev/null || true; rm -rf "$DATA"' EXIT
 
 screen() { tmux capture-pane -p -t "$SESSION"; }
 save() { screen >"$OUT/$1.txt"; echo "saved $OUT/$1.txt"; }
@@ -45,6 +49,14 @@ wait_for() {
     done
 }
 keys() { tmux send-keys -t "$SESSION" "$@"; }
+# wait_dead: until the program in the pane has ended.
+wait_dead() {
+    local deadline=$((SECONDS + STEP_TIMEOUT))
+    until [[ "$(tmux display -p -t "$SESSION" '#{pane_dead}')" == 1 ]]; do
+        ((SECONDS < deadline)) || fail "the program did not end within $STEP_TIMEOUT s"
+        sleep 0.2
+    done
+}
 start_demo() {
     # remain-on-exit keeps the pane after the program ends, to read its last words.
     tmux new-session -d -s "$SESSION" -x 80 -y 24 \
@@ -98,7 +110,7 @@ ls "$DATA/exports" | grep -q 'report\.json$' || fail "no report in $DATA/exports
 echo "7. quit"
 keys q
 keys q
-wait_for "Pane is dead"
+wait_dead
 save 07-quit
 tmux kill-session -t "$SESSION"
 
@@ -115,5 +127,38 @@ screen | grep -E '^\S*│1 +c-[0-9a-z]{6} +quick +done +9 ' >/dev/null \
     || fail "session 1 (done, 9 readings) is not in the history"
 keys q
 keys q
-wait_for "Pane is dead"
+wait_dead
+tmux kill-session -t "$SESSION"
+
+echo "9. kill the program mid-session (SIGKILL), start again: resume is offered"
+start_demo
+wait_for "Measuring"
+deadline=$((SECONDS + STEP_TIMEOUT))
+until screen | grep -qE '[3-8] of 9 taken'; do
+    ((SECONDS < deadline)) || fail "the simulated operator did not take 3 readings"
+    sleep 0.2
+done
+taken=$(screen | grep -oE '[0-9] of 9 taken' | head -1 | cut -d' ' -f1)
+pane_pid=$(tmux display -p -t "$SESSION" '#{pane_pid}')
+# The pane's process is the program, or a shell whose child it is.
+if [[ "$(ps -o comm= -p "$pane_pid")" != tapeshape ]]; then pane_pid=$(pgrep -P "$pane_pid"); fi
+kill -9 "$pane_pid"
+wait_dead
+save 09-killed
+tmux kill-session -t "$SESSION"
+start_demo
+wait_for "Resume?" 30
+save 10-resume-offered
+offered=$(screen | grep -oE '[0-9]+ readings are stored' | head -1 | cut -d' ' -f1)
+((offered >= taken)) || fail "resume offers $offered readings, $taken were on the screen before the kill"
+# Take over and accept: the session opens with its readings.
+keys Space
+wait_for "You have the keyboard"
+keys y
+wait_for "opened with its $offered stored readings"
+wait_for "$offered of 9 taken"
+save 11-resumed
+keys q
+keys q
+wait_dead
 echo "ok: captures in $OUT"

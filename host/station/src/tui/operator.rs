@@ -115,6 +115,8 @@ pub struct SimOperator {
     retaken: Vec<String>,
     exported: bool,
     sex_set: bool,
+    /// When the resume offer was first seen.
+    resume_seen: Option<Instant>,
 }
 
 impl SimOperator {
@@ -128,6 +130,7 @@ impl SimOperator {
             retaken: Vec::new(),
             exported: false,
             sex_set: false,
+            resume_seen: None,
         }
     }
 
@@ -153,7 +156,12 @@ impl SimOperator {
         match app.screen {
             Screen::NewCustomer => {
                 if app.resume.is_some() {
-                    // The same customer is still there: carry on.
+                    // Read the offer (2 s, as a person would), then carry
+                    // on: the same customer is still there.
+                    let seen = *self.resume_seen.get_or_insert(now);
+                    if now.duration_since(seen) < Duration::from_secs(2) {
+                        return None;
+                    }
                     return Some(KeyCode::Char('y'));
                 }
                 if !self.sex_set {
