@@ -342,3 +342,38 @@ fn help_overlay_in_the_demo() {
     send(&mut a, [ch('?'), ch('?')]);
     insta::assert_snapshot!(render(&a));
 }
+
+#[test]
+fn monochrome_draws_without_colours() {
+    use ratatui::style::Color;
+    let mut a = measuring();
+    a.mono = true;
+    committed(&mut a, 2, "waist", 5_800);
+    checked(&mut a, "waist", 5_800, Some("waist 58.0 cm is 6 SD below"));
+    unplug(&mut a);
+    let mut screens = vec![a.clone()];
+    let mut r = result_app();
+    r.mono = true;
+    screens.push(r);
+    for app in screens {
+        let mut t = Terminal::new(TestBackend::new(80, 24)).unwrap();
+        t.draw(|f| draw(&app, f)).unwrap();
+        for cell in t.backend().buffer().content() {
+            assert!(
+                matches!(cell.fg, Color::Reset) && matches!(cell.bg, Color::Reset),
+                "a coloured cell {:?} in monochrome",
+                cell
+            );
+        }
+    }
+    // The same screen in colour does use colour (the check above can fail).
+    let a = measuring();
+    let mut t = Terminal::new(TestBackend::new(80, 24)).unwrap();
+    t.draw(|f| draw(&a, f)).unwrap();
+    assert!(t
+        .backend()
+        .buffer()
+        .content()
+        .iter()
+        .any(|c| c.fg != Color::Reset || c.bg != Color::Reset));
+}
