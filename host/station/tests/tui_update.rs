@@ -252,7 +252,8 @@ fn enter_captures_the_live_value_only_when_a_tape_is_connected() {
     assert!(fx.contains(&Effect::CaptureLive {
         session: SessionId(3),
         name: "stature".into(),
-        value_tenth_mm: 17_642
+        value_tenth_mm: 17_642,
+        unit_shown: tapeshape_protocol::UnitShown::Metric,
     }));
     unplug(&mut a);
     let fx = send(&mut a, [key(KeyCode::Enter)]);
@@ -405,6 +406,25 @@ fn export_marks_the_session_done_and_history_delete_asks_first() {
         [Event::Exported(Ok(vec!["/tmp/x/body.obj".into()]))],
     );
     assert!(fx.contains(&Effect::SetStatus(SessionId(3), SessionStatus::Done)));
+    // Back to measuring (a retake after the export): the session opens
+    // again, or the store would refuse the new reading.
+    let fx = send(&mut a, [ch('b')]);
+    assert_eq!(a.screen, Screen::Measuring);
+    assert!(fx.contains(&Effect::SetStatus(SessionId(3), SessionStatus::Open)));
+    send(&mut a, [ch('e')]);
+    send(
+        &mut a,
+        [Event::Estimate(EstimateEvent::Done(Box::new(
+            tapeshape::tui::services::EstimateSummary {
+                session: SessionId(3),
+                rows: Vec::new(),
+                plausibility: "typical".into(),
+                warnings: Vec::new(),
+                silhouettes: Default::default(),
+                seconds: 0.3,
+            },
+        )))],
+    );
 
     let fx = send(&mut a, [ch('h')]);
     assert!(fx.contains(&Effect::LoadHistory));

@@ -376,6 +376,9 @@ pub struct SessionState {
     pub selected: usize,
     /// Undo stack.
     pub undo: Vec<UndoEntry>,
+    /// The session was marked done (after an export); going back to
+    /// measuring opens it again, or the store would refuse new readings.
+    pub marked_done: bool,
 }
 
 impl SessionState {
@@ -585,6 +588,8 @@ pub enum Effect {
         name: String,
         /// Value, tenths of a mm.
         value_tenth_mm: u32,
+        /// Unit the tape showed.
+        unit_shown: UnitShown,
     },
     /// Check a reading; answer with [`Event::Checked`].
     Check(CheckRequest),
@@ -770,7 +775,8 @@ pub fn update(app: &mut App, event: Event) -> Vec<Effect> {
                     ),
                 );
                 app.exported = Some(files);
-                if let Some(s) = &app.session {
+                if let Some(s) = app.session.as_mut() {
+                    s.marked_done = true;
                     fx.push(Effect::SetStatus(s.id, SessionStatus::Done));
                 }
             }
@@ -1042,6 +1048,7 @@ fn on_session_ready(app: &mut App, view: SessionView, fx: &mut Vec<Effect>) {
         current: None,
         selected: 0,
         undo: Vec::new(),
+        marked_done: false,
     };
     s.current = s.next_todo(None);
     s.selected = s.current.unwrap_or(0);
@@ -1150,6 +1157,7 @@ fn on_key_measuring(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                             session: s.id,
                             name: item.info.name.clone(),
                             value_tenth_mm: live.value_tenth_mm,
+                            unit_shown: live.unit_shown,
                         });
                     }
                     _ => app.note(
@@ -1297,7 +1305,15 @@ fn on_key_result(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
             app.screen = Screen::NewCustomer;
             app.notice = None;
         }
-        (KeyCode::Esc, _) | (_, Some('b')) => app.screen = Screen::Measuring,
+        (KeyCode::Esc, _) | (_, Some('b')) => {
+            app.screen = Screen::Measuring;
+            if let Some(s) = app.session.as_mut() {
+                if s.marked_done {
+                    s.marked_done = false;
+                    fx.push(Effect::SetStatus(s.id, SessionStatus::Open));
+                }
+            }
+        }
         _ => {}
     }
 }

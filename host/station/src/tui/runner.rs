@@ -252,6 +252,7 @@ impl Ctx {
                 session,
                 name,
                 value_tenth_mm,
+                unit_shown,
             } => {
                 let store = self.store.clone();
                 let tx = self.tx.clone();
@@ -259,7 +260,7 @@ impl Ctx {
                     let ev = match capture_live(&store, session, &name, value_tenth_mm) {
                         Ok(reading) => Event::Link(LinkEvent::ReadingCommitted {
                             reading,
-                            unit_shown: tapeshape_protocol::UnitShown::Metric,
+                            unit_shown,
                         }),
                         Err(e) => Event::Failed(format!("storing the captured value: {e:#}")),
                     };
