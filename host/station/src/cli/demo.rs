@@ -98,6 +98,9 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         return run_interactive(&args, global, store, temp.as_ref().map(|t| t.path()));
     }
     let (script, customer) = demo_script(&set, args.seed)?;
+    // Synthetic lengths (a set without ANSUR columns) are not a body: the
+    // estimate may refuse them, which is then reported, not an error.
+    let real_customer = demo_customer(&set, args.seed)?.sex.is_some();
     println!("demo customer: {customer}");
     let session = store.create_session(&format!("demo-{}", args.seed), Some(&set.name))?;
     let plan = plan(&store, &session, &[])?;
@@ -153,7 +156,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     let detail = store.open_session(session.id)?;
     print!("{}", crate::cli::session::render(&detail));
     println!();
-    headless_estimate(&detail, args.export_dir.as_deref())
+    headless_estimate(&detail, args.export_dir.as_deref(), real_customer)
 }
 
 /// Estimates the body from a recorded session with the station's services
@@ -161,6 +164,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
 fn headless_estimate(
     detail: &crate::store::SessionDetail,
     export: Option<&std::path::Path>,
+    must_succeed: bool,
 ) -> anyhow::Result<()> {
     use crate::tui::services::{EstimateEvent, EstimateJob, Services as _};
     let services = crate::tui::wiring::StationServices::new();
@@ -182,7 +186,13 @@ fn headless_estimate(
         match rx.recv_timeout(Duration::from_secs(120)) {
             Ok(EstimateEvent::Stage { .. }) => {}
             Ok(EstimateEvent::Done(s)) => break s,
-            Ok(EstimateEvent::Failed(e)) => bail!("the estimate was refused: {e}"),
+            Ok(EstimateEvent::Failed(e)) if must_succeed => {
+                bail!("the estimate was refused: {e}")
+            }
+            Ok(EstimateEvent::Failed(e)) => {
+                println!("estimate refused (synthetic lengths are not a body): {e}");
+                return Ok(());
+            }
             Ok(EstimateEvent::Cancelled) => bail!("the estimate was cancelled"),
             Err(_) => bail!("the estimate did not finish within 120 s"),
         }
@@ -320,7 +330,7 @@ pub struct DemoCustomer {
     pub values: Vec<(String, u32)>,
     /// Who it is, for the operator.
     pub description: String,
-    /// Sex, when the customer is a real person.
+    /// Sex, when the customer is a real person (`None`: synthetic lengths).
     pub sex: Option<tapeshape_engine::ansur::Sex>,
 }
 
