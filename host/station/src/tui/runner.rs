@@ -474,7 +474,12 @@ pub fn run_with_log(
     let before = log.metadata().map(|m| m.len()).unwrap_or(0);
     let saved = rustix::io::dup(std::io::stderr().as_fd()).context("saving stderr")?;
     rustix::stdio::dup2_stderr(log.as_fd()).context("sending stderr to the log file")?;
-    let result = runtime.block_on(run(options, services));
+    // A panic is caught here so stderr comes back and the operator is told
+    // where its message went (ratatui's hook has restored the terminal);
+    // every reading taken is already in the store.
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        runtime.block_on(run(options, services))
+    }));
     let restored = rustix::stdio::dup2_stderr(saved.as_fd());
     drop(saved);
     restored.context("restoring stderr")?;
@@ -482,5 +487,12 @@ pub fn run_with_log(
     if after > before {
         eprintln!("log messages of this run: {}", log_path.display());
     }
-    result
+    match result {
+        Ok(r) => r,
+        Err(_) => anyhow::bail!(
+            "the interface stopped on an internal error (details in {}); every reading \
+             taken is stored: start again and resume the session",
+            log_path.display()
+        ),
+    }
 }
