@@ -46,7 +46,8 @@ pub struct Args {
     /// Measurement set the new session follows (a built-in set such as
     /// paper34, ansur, quick, face7, or a set's TOML file): readings take the
     /// set's measurement names in order. A resumed session keeps its set and
-    /// continues with the measurements it does not have yet.
+    /// continues with the measurements it does not have yet. In the
+    /// interface: the set preselected for new customers.
     #[arg(long = "set", value_name = "NAME")]
     pub measurement_set: Option<String>,
 
@@ -103,12 +104,19 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         (!args.measurements.is_empty(), "--measurements"),
         (args.exit_when_complete, "--exit-when-complete"),
         (args.live, "--live"),
-        (args.measurement_set.is_some(), "--set"),
     ] {
         if given {
-            bail!("{what} belongs to the line mode (with --customer, --session or --resume); the interface asks for the set itself");
+            bail!("{what} belongs to the line mode (with --customer, --session or --resume)");
         }
     }
+    // --set preselects the set on the new customer form.
+    let default_set = match &args.measurement_set {
+        Some(set) => {
+            tapeshape_measure::MeasurementSet::load(set)?;
+            set.clone()
+        }
+        None => "quick".to_string(),
+    };
     let store = global.open_store()?;
     let export_dir = match args.export_dir {
         Some(d) => d,
@@ -126,7 +134,7 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         baud: args.baud,
         mono: mono_wanted(args.mono),
         export_dir,
-        default_set: "quick".into(),
+        default_set,
         demo: None,
     };
     let services = std::sync::Arc::new(crate::tui::wiring::StationServices::new());
