@@ -14,11 +14,14 @@
 //! a pipe), it records the session in line mode, prints it, estimates the
 //! body and prints the result's summary.
 //!
-//! The customer: an ANSUR II **test-split** subject (id divisible by 4, never
-//! used to train or fit anything), chosen by `--seed`; the simulated operator
-//! takes that person's real measurements for every entry of the set that maps
-//! to an ANSUR column (all of `quick` and `ansur`). A set without such a
-//! mapping (e.g. `paper34`) falls back to synthetic lengths, and says so.
+//! The customer: an ANSUR II test-split subject (id divisible by 4, never
+//! used to train or fit anything), chosen by `--seed`, whose real
+//! measurements the tape reads for every entry of the set that maps to an
+//! ANSUR column (all of `quick` and `ansur`). For a set without such a
+//! mapping (e.g. `paper34`) the customer is a body generated from the
+//! population with that seed, measured with the model's operators; only a
+//! set file the model does not know falls back to synthetic lengths, and
+//! says so.
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -362,7 +365,9 @@ pub fn demo_customer(
             ),
             sex: Some(subject.sex),
         },
-        None => {
+        None => match population_customer(set, seed)? {
+            Some(c) => c,
+            None => {
             let script = Script::session(
                 set.definitions.len(),
                 seed,
@@ -377,13 +382,73 @@ pub fn demo_customer(
                     .zip(script.confirmed_values())
                     .collect(),
                 description: format!(
-                    "synthetic lengths of 30 to 120 cm from seed {seed} (set {} has entries without an ANSUR II column)",
+                    "synthetic lengths of 30 to 120 cm from seed {seed} (set {} has entries the model does not know)",
                     set.name
                 ),
                 sex: None,
             }
-        }
+            }
+        },
     })
+}
+
+/// A body from the generated population (seed `seed`, one body) measured
+/// with the default model's operators: the customer for a set whose
+/// entries have no ANSUR II column (e.g. paper34). `None` if the set names
+/// a measurement the model does not know (a custom file).
+fn population_customer(
+    set: &tapeshape_measure::MeasurementSet,
+    seed: u64,
+) -> anyhow::Result<Option<DemoCustomer>> {
+    use tapeshape_engine::dataset::{generate_population, PopulationSettings};
+    use tapeshape_engine::predict::Engine;
+    let engine = Engine::default_model()?;
+    let Some(index): Option<Vec<usize>> = set
+        .definitions
+        .iter()
+        .map(|d| engine.set().index_of(&d.name))
+        .collect()
+    else {
+        return Ok(None);
+    };
+    let settings = PopulationSettings {
+        n: 1,
+        seed,
+        ..PopulationSettings::default()
+    };
+    let population = generate_population(&settings, &|_, _| {})
+        .context("generating the demo's simulated customer")?;
+    let body = &population.bodies[0];
+    if body.len() != engine.topology().n_vertices() {
+        return Ok(None);
+    }
+    let measured = engine
+        .compiled()
+        .measure(body)
+        .context("measuring the demo's simulated customer")?;
+    let values = set
+        .definitions
+        .iter()
+        .zip(index)
+        .map(|(d, j)| {
+            (
+                d.name.clone(),
+                (measured[j].value * 10_000.0).round() as u32,
+            )
+        })
+        .collect();
+    let record = population.header.bodies.first();
+    let sex = record
+        .and_then(|r| r.sex)
+        .unwrap_or(tapeshape_engine::ansur::Sex::Female);
+    Ok(Some(DemoCustomer {
+        values,
+        description: format!(
+            "a generated body (population seed {seed}, {sex:?}, fitted to an ANSUR II train-split subject's proportions) measured with the {} set",
+            set.name
+        ),
+        sex: Some(sex),
+    }))
 }
 
 /// The simulated operator's tape script for `set` and a line describing the
