@@ -359,3 +359,104 @@ fn per_measurement_weighting_fits_step_1_closer_than_the_papers() {
     );
     assert!(ours.1 < 0.1, "final errors {ours:?}");
 }
+
+/// Readings of a body outside the training family, the pipeline's error after
+/// step 1 and after step 2 (rms, mm) and the number of L-BFGS runs of each step.
+fn run_tube(settings: &PredictSettings, l: f64) -> (f64, f64, usize, usize) {
+    let model = train(60, 5);
+    let topo = topology();
+    let mut s = 777;
+    let mut truth = random_params(&mut s);
+    truth.bump = 0.02;
+    let targets: Vec<Option<Target>> = measure_all(&tube(&truth))
+        .into_iter()
+        .map(|v| Some(Target::exact(v)))
+        .collect();
+    let r = model
+        .predict(
+            &targets,
+            &TubeMeasurer,
+            &topo,
+            &PredictSettings {
+                l,
+                ..settings.clone()
+            },
+        )
+        .unwrap()
+        .report;
+    let e1: Vec<f64> = r
+        .measurements
+        .iter()
+        .map(|m| m.step1_mm.unwrap() - m.target_mm.unwrap())
+        .collect();
+    let e2: Vec<f64> = r.measurements.iter().map(|m| m.error_mm.unwrap()).collect();
+    (rms(&e1), rms(&e2), r.step1_runs.len(), r.step2_runs.len())
+}
+
+/// With one round of 5 iterations per step the readings are still off; the
+/// continuation adds rounds (announced as runs beyond s) until they are
+/// within its threshold or stop improving, and ends closer than without.
+#[test]
+fn continuation_adds_rounds_while_readings_miss() {
+    let short = PredictSettings {
+        s: 1,
+        stop: tapeshape_model::StopRule {
+            max_iters: 5,
+            ..Default::default()
+        },
+        step2_stop: tapeshape_model::StopRule {
+            max_iters: 5,
+            history: 5,
+            ..Default::default()
+        },
+        continuation: None,
+        ..PredictSettings::default()
+    };
+    let without = run_tube(&short, 3.0);
+    let with = run_tube(
+        &PredictSettings {
+            continuation: Some(tapeshape_model::Continuation {
+                max_extra_rounds: 20,
+                share: 0.01,
+                default_allowable_mm: 1.0,
+                time_budget_s: 60.0,
+            }),
+            ..short.clone()
+        },
+        3.0,
+    );
+    println!("without {without:?}, with {with:?}");
+    assert_eq!((without.2, without.3), (1, 1));
+    assert!(with.2 > 1 && with.3 >= 1, "{with:?}");
+    assert!(with.1 < without.1, "with {with:?} vs without {without:?}");
+}
+
+/// With a tight box (l = 1) the paper's one clamp after step 1 undoes part
+/// of the fit; clamping inside step 1 and refitting the other components
+/// leaves the readings closer after step 1.
+#[test]
+fn clamping_inside_step_1_refits_the_other_components() {
+    let base = PredictSettings {
+        continuation: None,
+        ..PredictSettings::default()
+    };
+    let after = run_tube(
+        &PredictSettings {
+            step1_box: false,
+            ..base.clone()
+        },
+        1.0,
+    );
+    let inside = run_tube(
+        &PredictSettings {
+            step1_box: true,
+            ..base
+        },
+        1.0,
+    );
+    println!("clamp after step 1 {after:?}, inside {inside:?}");
+    assert!(
+        inside.0 < 0.95 * after.0,
+        "inside {inside:?} vs after {after:?}"
+    );
+}
