@@ -4,8 +4,6 @@
 
 #![allow(dead_code)]
 
-use std::time::Duration;
-
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use tapeshape::link::{LinkCounters, LinkEvent};
 use tapeshape::store::{DeviceReading, ReadingId, SessionId, StoredReading};
@@ -180,6 +178,3 @@ pub fn naming(effects: &[Effect]) -> Option<Option<String>> {
         _ => None,
     })
 }
-
-/// Unused import guard.
-pub const TICK: Duration = Duration::from_millis(100);
