@@ -411,9 +411,12 @@ fn population_customer(
     else {
         return Ok(None);
     };
+    // Never the population the default model was trained on (seed 1): the
+    // demo's customer must be someone the model has not seen.
+    let population_seed = seed.wrapping_add(1_000_000);
     let settings = PopulationSettings {
         n: 1,
-        seed,
+        seed: population_seed,
         ..PopulationSettings::default()
     };
     let population = generate_population(&settings, &|_, _| {})
@@ -444,7 +447,7 @@ fn population_customer(
     Ok(Some(DemoCustomer {
         values,
         description: format!(
-            "a generated body (population seed {seed}, {sex:?}, fitted to an ANSUR II train-split subject's proportions) measured with the {} set",
+            "a generated body held out from the model's training (population seed {population_seed}, {sex:?}) measured with the {} set",
             set.name
         ),
         sex: Some(sex),
