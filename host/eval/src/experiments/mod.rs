@@ -134,13 +134,17 @@ pub struct Params {
 }
 
 impl Params {
-    /// The model crate's settings with these parameters (paper stopping rules).
+    /// The model crate's settings of the paper's exact pipeline
+    /// ([`PredictSettings::paper`]: energies as the paper writes them, one
+    /// clamp after step 1, exactly `s` rounds, its stopping rules) with
+    /// these parameters. The experiments reproduce the paper, so they do
+    /// not use the product's default refinements.
     pub fn predict_settings(&self) -> PredictSettings {
         PredictSettings {
             l: self.l,
             lambda: self.lambda,
             s: self.s,
-            ..PredictSettings::default()
+            ..PredictSettings::paper()
         }
     }
 }
