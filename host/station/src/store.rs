@@ -20,7 +20,8 @@
 //!   stored once, never twice. `UNIQUE(device_id, boot_id, seq)` backs this
 //!   up at the schema level.
 //! * A retake of a measurement keeps the earlier reading and marks it
-//!   superseded, so the history of a session is never rewritten.
+//!   superseded, so the history of a session is never rewritten; an undo
+//!   withdraws a reading (kept, no longer current) rather than deleting it.
 //!
 //! Schema versions are tracked with `PRAGMA user_version`; [`MIGRATIONS`] are
 //! applied in order, each in its own immediate transaction, so opening a
@@ -93,7 +94,47 @@ pub const MIGRATIONS: &[&str] = &[
         PRIMARY KEY (device_id, boot_id)
     );
     "#,
+    // 2: the operator's marks survive a restart: a reading withdrawn by
+    // undo (kept in the history, no longer current) and per-measurement
+    // marks (skipped, a flagged reading kept on purpose).
+    r#"
+    ALTER TABLE readings ADD COLUMN withdrawn_at_ms INTEGER;
+    CREATE TABLE marks (
+        session_id  INTEGER NOT NULL REFERENCES sessions (id) ON DELETE CASCADE,
+        measurement TEXT    NOT NULL,
+        mark        TEXT    NOT NULL CHECK (mark IN ('skipped', 'kept-flagged')),
+        at_ms       INTEGER NOT NULL,
+        PRIMARY KEY (session_id, measurement)
+    );
+    "#,
 ];
+
+/// An operator's mark on one measurement of a session, stored so that a
+/// resumed session looks as the operator left it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mark {
+    /// The operator skipped the measurement.
+    Skipped,
+    /// The operator kept a reading the check flagged.
+    KeptFlagged,
+}
+
+impl Mark {
+    fn as_sql(self) -> &'static str {
+        match self {
+            Mark::Skipped => "skipped",
+            Mark::KeptFlagged => "kept-flagged",
+        }
+    }
+
+    fn from_sql(s: &str) -> Option<Mark> {
+        match s {
+            "skipped" => Some(Mark::Skipped),
+            "kept-flagged" => Some(Mark::KeptFlagged),
+            _ => None,
+        }
+    }
+}
 
 /// Errors from the session store. Each message says what went wrong and,
 /// where the user can do something about it, what to do.
@@ -152,6 +193,9 @@ pub enum StoreError {
     /// No session has this id.
     #[error("no session with id {0}; `tapeshape sessions` lists the existing ones")]
     NoSuchSession(SessionId),
+    /// No reading has this id.
+    #[error("no reading with id {0}; `tapeshape session show ID` lists a session's readings")]
+    NoSuchReading(ReadingId),
     /// Readings can only be added to open sessions.
     #[error("session {id} is {status}; readings can only be added to an open session")]
     SessionNotOpen {
@@ -308,6 +352,9 @@ pub struct StoredReading {
     pub received_at_ms: i64,
     /// The retake that replaced this reading, if any.
     pub superseded_by: Option<ReadingId>,
+    /// When the operator withdrew it (undo), ms since the Unix epoch; a
+    /// withdrawn reading stays in the history but is not current.
+    pub withdrawn_at_ms: Option<i64>,
 }
 
 impl StoredReading {
@@ -327,10 +374,12 @@ pub struct SessionDetail {
 }
 
 impl SessionDetail {
-    /// The readings not superseded by a retake, in commit order: one per
-    /// measurement name.
+    /// The readings neither superseded by a retake nor withdrawn, in commit
+    /// order: at most one per measurement name.
     pub fn current_readings(&self) -> impl Iterator<Item = &StoredReading> {
-        self.readings.iter().filter(|r| r.superseded_by.is_none())
+        self.readings
+            .iter()
+            .filter(|r| r.superseded_by.is_none() && r.withdrawn_at_ms.is_none())
     }
 }
 
@@ -415,7 +464,7 @@ fn valid_text(s: &str, max: usize) -> bool {
 const SESSION_COLS: &str =
     "id, customer_id, created_at_ms, updated_at_ms, status, measurement_set, notes";
 const READING_COLS: &str = "id, session_id, measurement, value_tenth_mm, device_id, boot_id, seq, \
-     device_time_ms, received_at_ms, superseded_by";
+     device_time_ms, received_at_ms, superseded_by, withdrawn_at_ms";
 
 fn session_from_row(row: &rusqlite::Row<'_>) -> rusqlite::Result<(Session, String)> {
     let status: String = row.get(4)?;
@@ -454,6 +503,7 @@ fn reading_from_row(row: &rusqlite::Row<'_>) -> rusqlite::Result<StoredReading> 
         },
         received_at_ms: row.get(8)?,
         superseded_by: row.get::<_, Option<i64>>(9)?.map(ReadingId),
+        withdrawn_at_ms: row.get(10)?,
     })
 }
 
@@ -553,7 +603,8 @@ impl Store {
         let conn = self.lock();
         let mut stmt = conn.prepare(&format!(
             "SELECT {SESSION_COLS},
-                (SELECT COUNT(*) FROM readings r WHERE r.session_id = s.id AND r.superseded_by IS NULL),
+                (SELECT COUNT(*) FROM readings r WHERE r.session_id = s.id AND r.superseded_by IS NULL
+                    AND r.withdrawn_at_ms IS NULL),
                 (SELECT COUNT(*) FROM readings r WHERE r.session_id = s.id)
              FROM sessions s ORDER BY updated_at_ms DESC, id DESC"
         ))?;
@@ -756,7 +807,8 @@ impl Store {
         let id = tx.last_insert_rowid();
         tx.execute(
             "UPDATE readings SET superseded_by = ?1
-             WHERE session_id = ?2 AND measurement = ?3 AND id <> ?1 AND superseded_by IS NULL",
+             WHERE session_id = ?2 AND measurement = ?3 AND id <> ?1 AND superseded_by IS NULL
+               AND withdrawn_at_ms IS NULL",
             params![id, session.0, measurement],
         )?;
         tx.execute(
@@ -784,7 +836,110 @@ impl Store {
             device: *reading,
             received_at_ms: now,
             superseded_by: None,
+            withdrawn_at_ms: None,
         }))
+    }
+
+    /// Withdraws reading `id` (the operator's undo): it stays in the
+    /// session's history but is no longer current, and the reading it had
+    /// superseded (the value before a retake) is current again. Returns
+    /// that restored reading, if any. Withdrawing twice is harmless.
+    pub fn withdraw_reading(&self, id: ReadingId) -> Result<Option<ReadingId>, StoreError> {
+        let mut conn = self.lock();
+        let tx = conn.transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let session: Option<i64> = tx
+            .query_row(
+                "SELECT session_id FROM readings WHERE id = ?1",
+                [id.0],
+                |r| r.get(0),
+            )
+            .optional()?;
+        let Some(session) = session else {
+            return Err(StoreError::NoSuchReading(id));
+        };
+        let now = now_ms();
+        let changed = tx.execute(
+            "UPDATE readings SET withdrawn_at_ms = ?2 WHERE id = ?1 AND withdrawn_at_ms IS NULL",
+            params![id.0, now],
+        )?;
+        let mut restored = None;
+        if changed > 0 {
+            restored = tx
+                .query_row(
+                    "SELECT id FROM readings WHERE superseded_by = ?1 AND withdrawn_at_ms IS NULL
+                     ORDER BY id DESC LIMIT 1",
+                    [id.0],
+                    |r| r.get::<_, i64>(0),
+                )
+                .optional()?;
+            tx.execute(
+                "UPDATE readings SET superseded_by = NULL WHERE superseded_by = ?1",
+                [id.0],
+            )?;
+            tx.execute(
+                "UPDATE sessions SET updated_at_ms = ?2 WHERE id = ?1",
+                params![session, now],
+            )?;
+        }
+        tx.commit()?;
+        Ok(restored.map(ReadingId))
+    }
+
+    /// Sets (or with `None` clears) the operator's mark on `measurement` of
+    /// `session`.
+    pub fn set_mark(
+        &self,
+        session: SessionId,
+        measurement: &str,
+        mark: Option<Mark>,
+    ) -> Result<(), StoreError> {
+        let conn = self.lock();
+        match mark {
+            Some(m) => {
+                conn.execute(
+                    "INSERT INTO marks (session_id, measurement, mark, at_ms) VALUES (?1, ?2, ?3, ?4)
+                     ON CONFLICT (session_id, measurement)
+                     DO UPDATE SET mark = excluded.mark, at_ms = excluded.at_ms",
+                    params![session.0, measurement, m.as_sql(), now_ms()],
+                )
+                .map_err(|e| match e {
+                    rusqlite::Error::SqliteFailure(f, _)
+                        if f.code == rusqlite::ErrorCode::ConstraintViolation =>
+                    {
+                        StoreError::NoSuchSession(session)
+                    }
+                    e => e.into(),
+                })?;
+            }
+            None => {
+                conn.execute(
+                    "DELETE FROM marks WHERE session_id = ?1 AND measurement = ?2",
+                    params![session.0, measurement],
+                )?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The operator's marks in `session` (measurement name, mark), by name.
+    pub fn marks(&self, session: SessionId) -> Result<Vec<(String, Mark)>, StoreError> {
+        let conn = self.lock();
+        let mut stmt = conn.prepare(
+            "SELECT measurement, mark FROM marks WHERE session_id = ?1 ORDER BY measurement",
+        )?;
+        let rows = stmt.query_map([session.0], |r| {
+            Ok((r.get::<_, String>(0)?, r.get::<_, String>(1)?))
+        })?;
+        let mut out = Vec::new();
+        for row in rows {
+            let (name, mark) = row?;
+            // The CHECK constraint admits only known marks; an unknown one
+            // (a newer program's) is skipped rather than failing the session.
+            if let Some(m) = Mark::from_sql(&mark) {
+                out.push((name, m));
+            }
+        }
+        Ok(out)
     }
 }
 
@@ -1005,6 +1160,91 @@ mod tests {
         assert_eq!(current, vec![("hip", 950), ("waist", 812)]);
         let summary = &store.list_sessions().unwrap()[0];
         assert_eq!((summary.current_readings, summary.total_readings), (2, 3));
+    }
+
+    #[test]
+    fn withdrawing_a_retake_restores_the_value_before_and_keeps_history() {
+        let (_dir, store) = temp_store();
+        let s = store.create_session("C-2", None).unwrap();
+        let mut ids = Vec::new();
+        for (seq, (name, v)) in [("waist", 800), ("hip", 950), ("waist", 812)]
+            .into_iter()
+            .enumerate()
+        {
+            let seq = u32::try_from(seq).unwrap();
+            match store
+                .commit_reading(s.id, name, &reading(1, 1, seq, v))
+                .unwrap()
+            {
+                CommitOutcome::Committed(r) => ids.push(r.id),
+                other => panic!("{other:?}"),
+            }
+        }
+        // Undo the retake: the first waist is current again.
+        assert_eq!(store.withdraw_reading(ids[2]).unwrap(), Some(ids[0]));
+        let current = |store: &Store| -> Vec<(String, u32)> {
+            store
+                .open_session(s.id)
+                .unwrap()
+                .current_readings()
+                .map(|r| (r.measurement.clone(), r.device.value_tenth_mm))
+                .collect()
+        };
+        assert_eq!(
+            current(&store),
+            vec![("waist".to_string(), 800), ("hip".to_string(), 950)]
+        );
+        // Twice is harmless; nothing is deleted.
+        assert_eq!(store.withdraw_reading(ids[2]).unwrap(), None);
+        let detail = store.open_session(s.id).unwrap();
+        assert_eq!(detail.readings.len(), 3);
+        assert!(detail.readings[2].withdrawn_at_ms.is_some());
+        // Undo the hip: no hip is current, and a new waist supersedes only
+        // the current one.
+        assert_eq!(store.withdraw_reading(ids[1]).unwrap(), None);
+        committed(
+            store
+                .commit_reading(s.id, "waist", &reading(1, 1, 3, 820))
+                .unwrap(),
+        );
+        assert_eq!(current(&store), vec![("waist".to_string(), 820)]);
+        let summary = &store.list_sessions().unwrap()[0];
+        assert_eq!((summary.current_readings, summary.total_readings), (1, 4));
+        assert!(matches!(
+            store.withdraw_reading(ReadingId(999)),
+            Err(StoreError::NoSuchReading(_))
+        ));
+    }
+
+    #[test]
+    fn marks_round_trip_and_clear() {
+        let (_dir, store) = temp_store();
+        let s = store.create_session("C-3", Some("quick")).unwrap();
+        store.set_mark(s.id, "neck", Some(Mark::Skipped)).unwrap();
+        store
+            .set_mark(s.id, "chest", Some(Mark::KeptFlagged))
+            .unwrap();
+        store
+            .set_mark(s.id, "neck", Some(Mark::KeptFlagged))
+            .unwrap();
+        assert_eq!(
+            store.marks(s.id).unwrap(),
+            vec![
+                ("chest".to_string(), Mark::KeptFlagged),
+                ("neck".to_string(), Mark::KeptFlagged)
+            ]
+        );
+        store.set_mark(s.id, "chest", None).unwrap();
+        assert_eq!(
+            store.marks(s.id).unwrap(),
+            vec![("neck".to_string(), Mark::KeptFlagged)]
+        );
+        assert!(matches!(
+            store.set_mark(SessionId(77), "neck", Some(Mark::Skipped)),
+            Err(StoreError::NoSuchSession(_))
+        ));
+        store.delete_session(s.id).unwrap();
+        assert!(store.marks(s.id).unwrap().is_empty());
     }
 
     #[test]

@@ -32,6 +32,7 @@ fn answer(fx: Vec<Effect>, seq: &mut u32, log: &mut Vec<Effect>) -> Vec<Event> {
                 measurements: quick(),
                 readings: Vec::new(),
                 superseded: Vec::new(),
+                marks: Vec::new(),
             })),
             Effect::SimTape { name, slip } => {
                 assert!(!slip);
@@ -51,6 +52,7 @@ fn answer(fx: Vec<Effect>, seq: &mut u32, log: &mut Vec<Effect>) -> Vec<Event> {
                         },
                         received_at_ms: 0,
                         superseded_by: None,
+                        withdrawn_at_ms: None,
                     },
                     unit_shown: tapeshape_protocol::UnitShown::Metric,
                 }));

@@ -1,7 +1,7 @@
 //! The runner's store effects against a real store in a temporary folder:
 //! creating and reopening sessions, and the Enter capture's own numbering.
 
-use tapeshape::store::{SessionStatus, Store};
+use tapeshape::store::{Mark, SessionStatus, Store};
 use tapeshape::tui::runner::{
     capture_live, create_session, open_session, KEYBOARD_CAPTURE_DEVICE_ID,
 };
@@ -68,4 +68,28 @@ fn capture_into_a_closed_session_is_an_error_not_a_loss() {
     store.set_status(view.id, SessionStatus::Done).unwrap();
     let err = capture_live(&store, view.id, "stature", 17_650).unwrap_err();
     assert!(format!("{err:#}").contains("open session"), "{err:#}");
+}
+
+#[test]
+fn undo_and_skip_survive_a_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::open(dir.path()).unwrap();
+    let view = create_session(&store, "c-2", "quick", None).unwrap();
+    let first = capture_live(&store, view.id, "stature", 17_650).unwrap();
+    let retake = capture_live(&store, view.id, "stature", 17_900).unwrap();
+    let chest = capture_live(&store, view.id, "chest", 9_820).unwrap();
+    // The operator undoes the retake and the chest reading, skips the neck.
+    assert_eq!(store.withdraw_reading(retake.id).unwrap(), Some(first.id));
+    store.withdraw_reading(chest.id).unwrap();
+    store
+        .set_mark(view.id, "neck", Some(Mark::Skipped))
+        .unwrap();
+    // A restart (a new store handle) sees the session as it was left.
+    drop(store);
+    let store = Store::open(dir.path()).unwrap();
+    let again = open_session(&store, view.id).unwrap();
+    assert_eq!(again.readings, vec![("stature".to_string(), 17_650)]);
+    assert_eq!(again.marks, vec![("neck".to_string(), Mark::Skipped)]);
+    // Nothing was deleted: all three readings are in the history.
+    assert_eq!(store.open_session(view.id).unwrap().readings.len(), 3);
 }

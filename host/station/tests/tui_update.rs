@@ -5,7 +5,7 @@
 mod tui_fixture;
 
 use crossterm::event::KeyCode;
-use tapeshape::store::{SessionId, SessionStatus};
+use tapeshape::store::{Mark, ReadingId, SessionId, SessionStatus};
 use tapeshape::tui::app::{Autopilot, DisplayUnit, Effect, Event, ItemState, Screen};
 use tapeshape::tui::services::{EstimateEvent, Stage};
 use tui_fixture::*;
@@ -180,13 +180,24 @@ fn skip_then_undo_restores_the_measurement() {
     let mut a = app(false);
     connect(&mut a);
     open_session(&mut a, &[]);
-    send(&mut a, [ch('s')]);
+    let fx = send(&mut a, [ch('s')]);
     assert_eq!(
         a.session.as_ref().unwrap().items[0].state,
         ItemState::Skipped
     );
+    // The skip is stored, so a resumed session still shows it.
+    assert!(fx.contains(&Effect::SetMark {
+        session: SessionId(3),
+        name: "stature".into(),
+        mark: Some(Mark::Skipped)
+    }));
     assert_eq!(current(&a).as_deref(), Some("chest"));
     let fx = send(&mut a, [ch('u')]);
+    assert!(fx.contains(&Effect::SetMark {
+        session: SessionId(3),
+        name: "stature".into(),
+        mark: None
+    }));
     assert_eq!(a.session.as_ref().unwrap().items[0].state, ItemState::Todo);
     assert_eq!(current(&a).as_deref(), Some("stature"));
     assert_eq!(naming(&fx), Some(Some("stature".into())));
@@ -211,7 +222,10 @@ fn undo_of_a_reading_leaves_it_out_of_the_estimate_and_asks_for_it_again() {
     open_session(&mut a, &[]);
     take(&mut a, 0, "stature", 17_650);
     take(&mut a, 1, "chest", 9_820);
-    send(&mut a, [ch('u')]);
+    let fx = send(&mut a, [ch('u')]);
+    // Withdrawn in the store too (reading ids are 100 + seq in the fixture),
+    // so a resumed session does not bring it back.
+    assert!(fx.contains(&Effect::WithdrawReading(ReadingId(101))));
     let s = a.session.as_ref().unwrap();
     assert_eq!(s.items[1].state, ItemState::Todo);
     assert_eq!(s.items[1].value, None);
@@ -477,4 +491,33 @@ fn quit_needs_two_presses_and_ctrl_c_one() {
         ))],
     );
     assert!(b.quit && fx.contains(&Effect::Quit));
+}
+
+#[test]
+fn a_resumed_session_shows_the_operator_marks_it_was_left_with() {
+    let mut a = app(false);
+    connect(&mut a);
+    send(
+        &mut a,
+        [Event::SessionReady(tapeshape::tui::app::SessionView {
+            id: SessionId(3),
+            customer: "c-test".into(),
+            set: "quick".into(),
+            notes: None,
+            measurements: quick(),
+            readings: vec![("chest".into(), 5_800)],
+            superseded: Vec::new(),
+            marks: vec![
+                ("stature".into(), Mark::Skipped),
+                ("chest".into(), Mark::KeptFlagged),
+            ],
+        })],
+    );
+    let s = a.session.as_ref().unwrap();
+    assert_eq!(s.items[0].state, ItemState::Skipped);
+    assert_eq!(s.items[1].state, ItemState::Done);
+    assert!(s.items[1].kept_flagged);
+    // Neither skipped nor taken: the tape goes to the next one.
+    assert_ne!(current(&a).as_deref(), Some("stature"));
+    assert_ne!(current(&a).as_deref(), Some("chest"));
 }

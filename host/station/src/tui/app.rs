@@ -20,7 +20,7 @@ use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use tapeshape_protocol::{DeviceHello, Live, UnitShown};
 
 use crate::link::LinkEvent;
-use crate::store::{SessionId, SessionStatus, SessionSummary};
+use crate::store::{Mark, ReadingId, SessionId, SessionStatus, SessionSummary};
 use crate::tui::services::{
     CheckOutcome, CheckRequest, EstimateEvent, EstimateJob, EstimateSummary, ExportFormat, Stage,
 };
@@ -310,6 +310,8 @@ pub struct SessionView {
     pub readings: Vec<(String, u32)>,
     /// Superseded (retaken) readings (name, tenths of a mm), commit order.
     pub superseded: Vec<(String, u32)>,
+    /// The operator's stored marks (skipped, flagged reading kept).
+    pub marks: Vec<(String, Mark)>,
 }
 
 /// State of one measurement in the session.
@@ -346,11 +348,23 @@ pub struct Item {
     pub kept_flagged: bool,
 }
 
+/// What undoing a step changes in the store, so that a resumed session
+/// looks as the operator left it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StoreRevert {
+    /// Withdraw this reading (it stays in the history).
+    Withdraw(ReadingId),
+    /// Set this measurement's mark back to this.
+    Mark(String, Option<Mark>),
+}
+
 /// An operator step that `u` undoes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct UndoEntry {
     /// What it was, in words (for the notice).
     pub what: String,
+    /// What undoing it changes in the store.
+    pub reverts: Vec<StoreRevert>,
     /// Item index and its state before the step.
     pub item: Option<(usize, Item)>,
     /// The current measurement before the step.
@@ -593,6 +607,18 @@ pub enum Effect {
     },
     /// Check a reading; answer with [`Event::Checked`].
     Check(CheckRequest),
+    /// Withdraw a stored reading (undo): it stays in the session's history,
+    /// the value it replaced is current again.
+    WithdrawReading(ReadingId),
+    /// Store (or clear) the operator's mark on a measurement.
+    SetMark {
+        /// Session.
+        session: SessionId,
+        /// Measurement name.
+        name: String,
+        /// The mark, or `None` to clear it.
+        mark: Option<Mark>,
+    },
     /// Start an estimate; progress comes as [`Event::Estimate`].
     StartEstimate(EstimateJob),
     /// Cancel the running estimate.
@@ -1038,6 +1064,15 @@ fn on_session_ready(app: &mut App, view: SessionView, fx: &mut Vec<Effect>) {
             None => unknown.push(name.clone()),
         }
     }
+    for (name, mark) in &view.marks {
+        if let Some(i) = items.iter_mut().find(|i| &i.info.name == name) {
+            match mark {
+                Mark::Skipped if i.value.is_none() => i.state = ItemState::Skipped,
+                Mark::KeptFlagged if i.value.is_some() => i.kept_flagged = true,
+                _ => {}
+            }
+        }
+    }
     let resumed = view.readings.len();
     let mut s = SessionState {
         id: view.id,
@@ -1136,10 +1171,17 @@ fn on_key_measuring(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
             match item.state {
                 ItemState::Flagged => {
                     let before = item.clone();
+                    let name = item.info.name.clone();
                     s.undo.push(UndoEntry {
                         what: format!("kept flagged {}", item.info.label),
+                        reverts: vec![StoreRevert::Mark(name.clone(), stored_mark(&before))],
                         item: Some((c, before)),
                         current: s.current,
+                    });
+                    fx.push(Effect::SetMark {
+                        session: s.id,
+                        name,
+                        mark: Some(Mark::KeptFlagged),
                     });
                     let item = &mut s.items[c];
                     item.state = ItemState::Done;
@@ -1170,10 +1212,17 @@ fn on_key_measuring(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
         (_, Some('s')) => {
             let Some(c) = s.current else { return };
             let before = s.items[c].clone();
+            let name = before.info.name.clone();
             s.undo.push(UndoEntry {
                 what: format!("skipped {}", before.info.label),
+                reverts: vec![StoreRevert::Mark(name.clone(), stored_mark(&before))],
                 item: Some((c, before)),
                 current: s.current,
+            });
+            fx.push(Effect::SetMark {
+                session: s.id,
+                name,
+                mark: Some(Mark::Skipped),
             });
             s.items[c].state = ItemState::Skipped;
             let label = s.items[c].info.label.clone();
@@ -1188,8 +1237,21 @@ fn on_key_measuring(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                 return;
             }
             let before = s.items[i].clone();
+            let mut reverts = Vec::new();
+            if before.state == ItemState::Skipped {
+                reverts.push(StoreRevert::Mark(
+                    before.info.name.clone(),
+                    Some(Mark::Skipped),
+                ));
+                fx.push(Effect::SetMark {
+                    session: s.id,
+                    name: before.info.name.clone(),
+                    mark: None,
+                });
+            }
             s.undo.push(UndoEntry {
                 what: format!("retake of {}", before.info.label),
+                reverts,
                 item: Some((i, before)),
                 current: s.current,
             });
@@ -1205,6 +1267,16 @@ fn on_key_measuring(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
         }
         (_, Some('u')) => match s.undo.pop() {
             Some(entry) => {
+                for revert in entry.reverts {
+                    fx.push(match revert {
+                        StoreRevert::Withdraw(id) => Effect::WithdrawReading(id),
+                        StoreRevert::Mark(name, mark) => Effect::SetMark {
+                            session: s.id,
+                            name,
+                            mark,
+                        },
+                    });
+                }
                 if let Some((i, item)) = entry.item {
                     s.items[i] = item;
                 }
@@ -1427,8 +1499,19 @@ fn on_link(app: &mut App, ev: LinkEvent, fx: &mut Vec<Effect>) {
                 return;
             };
             let before = s.items[i].clone();
+            let mut reverts = vec![StoreRevert::Withdraw(reading.id)];
+            if let Some(mark) = stored_mark(&before) {
+                // A new reading replaces a skip or a kept flag.
+                reverts.push(StoreRevert::Mark(before.info.name.clone(), Some(mark)));
+                fx.push(Effect::SetMark {
+                    session: s.id,
+                    name: before.info.name.clone(),
+                    mark: None,
+                });
+            }
             s.undo.push(UndoEntry {
                 what: format!("reading of {}", before.info.label),
+                reverts,
                 item: Some((i, before)),
                 current: s.current,
             });
@@ -1541,6 +1624,17 @@ fn on_link(app: &mut App, ev: LinkEvent, fx: &mut Vec<Effect>) {
             }
         }
         LinkEvent::Stopped => d.connection = Connection::Stopped,
+    }
+}
+
+/// The mark the store keeps for an item in this state, if any.
+fn stored_mark(item: &Item) -> Option<Mark> {
+    if item.state == ItemState::Skipped {
+        Some(Mark::Skipped)
+    } else if item.kept_flagged {
+        Some(Mark::KeptFlagged)
+    } else {
+        None
     }
 }
 

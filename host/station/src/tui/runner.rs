@@ -307,6 +307,20 @@ impl Ctx {
                     let _ = tx.send(Event::Exported(r));
                 });
             }
+            Effect::WithdrawReading(id) => {
+                if let Err(e) = self.store.withdraw_reading(id) {
+                    self.send(Event::Failed(format!("withdrawing reading {id}: {e}")));
+                }
+            }
+            Effect::SetMark {
+                session,
+                name,
+                mark,
+            } => {
+                if let Err(e) = self.store.set_mark(session, &name, mark) {
+                    self.send(Event::Failed(format!("storing the mark on {name}: {e}")));
+                }
+            }
             Effect::SetStatus(id, status) => {
                 if let Err(e) = self.store.set_status(id, status) {
                     self.send(Event::Failed(format!("marking session {id} {status}: {e}")));
@@ -374,6 +388,7 @@ pub fn create_session(
         measurements,
         readings: Vec::new(),
         superseded: Vec::new(),
+        marks: Vec::new(),
     })
 }
 
@@ -417,6 +432,7 @@ pub fn open_session(store: &Store, id: SessionId) -> anyhow::Result<SessionView>
             .filter(|r| r.superseded_by.is_some())
             .map(|r| (r.measurement.clone(), r.device.value_tenth_mm))
             .collect(),
+        marks: store.marks(id)?,
     })
 }
 

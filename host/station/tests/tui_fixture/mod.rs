@@ -103,6 +103,7 @@ pub fn open_session(app: &mut App, readings: &[(&str, u32)]) -> Vec<Effect> {
             measurements: quick(),
             readings: readings.iter().map(|(n, v)| (n.to_string(), *v)).collect(),
             superseded: Vec::new(),
+            marks: Vec::new(),
         })],
     )
 }
@@ -125,6 +126,7 @@ pub fn committed(app: &mut App, seq: u32, name: &str, value_tenth_mm: u32) -> Ve
                 },
                 received_at_ms: 1_700_000_000_000,
                 superseded_by: None,
+                withdrawn_at_ms: None,
             },
             unit_shown: UnitShown::Metric,
         })],
