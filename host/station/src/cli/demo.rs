@@ -68,6 +68,13 @@ pub struct Args {
     /// headless: no export unless given].
     #[arg(long, value_name = "DIR")]
     pub export_dir: Option<PathBuf>,
+
+    /// The operator's reading uncertainty in millimetres (standard
+    /// deviation; about 10 for a novice with a tape). Readings are checked
+    /// and fitted with it instead of a skilled measurer's ISO 20685-1
+    /// tolerances.
+    #[arg(long, value_name = "MM")]
+    pub reading_tolerance: Option<f64>,
 }
 
 /// Runs the demo. The session goes to the data directory if one is given
@@ -159,7 +166,13 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     let detail = store.open_session(session.id)?;
     print!("{}", crate::cli::session::render(&detail));
     println!();
-    headless_estimate(&detail, args.export_dir.as_deref(), real_customer)
+    let tolerance = crate::tui::wiring::reading_tolerance_m(args.reading_tolerance)?;
+    headless_estimate(
+        &detail,
+        args.export_dir.as_deref(),
+        real_customer,
+        tolerance,
+    )
 }
 
 /// Estimates the body from a recorded session with the station's services
@@ -168,9 +181,10 @@ fn headless_estimate(
     detail: &crate::store::SessionDetail,
     export: Option<&std::path::Path>,
     must_succeed: bool,
+    reading_tolerance_m: Option<f64>,
 ) -> anyhow::Result<()> {
     use crate::tui::services::{EstimateEvent, EstimateJob, Services as _};
-    let services = crate::tui::wiring::StationServices::new();
+    let services = crate::tui::wiring::StationServices::with_reading_tolerance(reading_tolerance_m);
     let job = EstimateJob {
         session: detail.session.id,
         readings: detail
@@ -290,7 +304,10 @@ fn run_interactive(
         default_set: set.name.clone(),
         demo: Some((tape, operator)),
     };
-    let services = std::sync::Arc::new(crate::tui::wiring::StationServices::new());
+    let services =
+        std::sync::Arc::new(crate::tui::wiring::StationServices::with_reading_tolerance(
+            crate::tui::wiring::reading_tolerance_m(args.reading_tolerance)?,
+        ));
     let global = match temp {
         Some(t) => Global {
             data_dir: Some(t.to_path_buf()),

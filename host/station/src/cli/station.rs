@@ -77,6 +77,13 @@ pub struct Args {
     /// Folder for exported bodies and reports [default: DATA_DIR/exports].
     #[arg(long, value_name = "DIR")]
     pub export_dir: Option<PathBuf>,
+
+    /// The operator's reading uncertainty in millimetres (standard
+    /// deviation; about 10 for a novice with a tape). Readings are checked
+    /// and fitted with it instead of a skilled measurer's ISO 20685-1
+    /// tolerances.
+    #[arg(long, value_name = "MM")]
+    pub reading_tolerance: Option<f64>,
 }
 
 /// Is the line mode asked for (a session named on the command line)?
@@ -109,6 +116,7 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
             bail!("{what} belongs to the line mode (with --customer, --session or --resume)");
         }
     }
+    let tolerance = crate::tui::wiring::reading_tolerance_m(args.reading_tolerance)?;
     // --set preselects the set on the new customer form.
     let default_set = match &args.measurement_set {
         Some(set) => {
@@ -137,7 +145,9 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         default_set,
         demo: None,
     };
-    let services = std::sync::Arc::new(crate::tui::wiring::StationServices::new());
+    let services = std::sync::Arc::new(
+        crate::tui::wiring::StationServices::with_reading_tolerance(tolerance),
+    );
     crate::tui::runner::run_with_log(options, services, &runtime, global)
 }
 
@@ -147,6 +157,11 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     check_port(&args.port)?;
     if !line_mode(&args) {
         return run_tui(args, global);
+    }
+    if args.reading_tolerance.is_some() || args.mono || args.export_dir.is_some() {
+        bail!(
+            "--reading-tolerance, --mono and --export-dir belong to the terminal interface;              the line mode (--customer, --session, --resume) only records readings"
+        );
     }
     let store = global.open_store()?;
     let session = choose_session(&store, &args)?;
