@@ -153,8 +153,8 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     }
     let base = settings_from_args(args)?;
     println!(
-        "\nS_real: {n} held-out generated bodies, inputs = their paper34 values, settings l = {}, lambda = {}, s = {}, step-1 weighting {:?}, prior {:?} mm, step-1 components {:?}\n",
-        base.l, base.lambda, base.s, base.step1_weighting, base.step1_prior_mm, base.step1_components
+        "\nS_real: {n} held-out generated bodies, inputs = their paper34 values, settings l = {}, lambda = {}, s = {}, step-1 weighting {:?}, prior {:?} mm, step-1 components {:?}, Gauss-Newton {}\n",
+        base.l, base.lambda, base.s, base.step1_weighting, base.step1_prior_mm, base.step1_components, base.step1_gauss_newton
     );
     println!("| model | method | Euclidean (14) mm | circumference, planar (4) mm | circumference, geodesic loops (4) mm | all circumferences mm | vertex distance mm | flipped / degenerate vs step-1 shape | flipped / degenerate vs true body (true body vs PCA mean) | mean time s |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
@@ -595,7 +595,8 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
 /// `--s`, `--w1`/`--w2` (`paper` or `per-measurement` energy weighting),
 /// `--prior TAU_MM` (MAP step 1), `--k1 K` (step 1 moves the first K
 /// components only), `--box on|off`, `--cont N|off` (continuation rounds),
-/// `--iters1`/`--iters2` (L-BFGS iteration caps).
+/// `--iters1`/`--iters2` (L-BFGS iteration caps), `--gn on|off` (step 1
+/// as a Gauss-Newton MAP, see `tapeshape_model::map`; on by default).
 fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::error::Error>> {
     // --paper: the paper's exact pipeline (PredictSettings::paper()).
     let mut s = if args.iter().any(|a| a == "--paper") {
@@ -625,6 +626,9 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
     }
     if let Some(v) = arg(args, "--prior") {
         s.step1_prior_mm = Some(v.parse()?);
+    }
+    if let Some(v) = arg(args, "--gn") {
+        s.step1_gauss_newton = v == "on";
     }
     if let Some(v) = arg(args, "--k1") {
         s.step1_components = Some(v.parse()?);

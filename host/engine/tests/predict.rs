@@ -160,21 +160,20 @@ fn sreal_reduced_measurement_errors_beat_feature_analysis() {
     );
 }
 
-/// The issue asks for a vertex distance below feature analysis alone. At
-/// full scale it is a tie (400 bodies, 50 held out: 13.86 vs 13.86 mm, see
-/// docs/results/predict-sreal.md); this reduced version passed or failed
-/// by chance as the code changed (19.05 vs 18.92 mm, later 19.99 vs
-/// 20.08 mm): fitting the
-/// measurements exactly moves the shape away from the conditional mean as
-/// often as towards the truth. Kept as a check for the model's owner to
-/// turn on: `cargo test -p tapeshape-engine --test predict -- --ignored`.
+/// The issue asks for a vertex distance below feature analysis alone. With
+/// the Gauss-Newton MAP step 1 (the default; `tapeshape_model::map`) the
+/// full method is closer here by 16 % (16.89 vs 20.08 mm on these 5 bodies;
+/// at full scale 13.65 vs 13.86 mm, `docs/results/predict-sreal.md`): with
+/// 60 training bodies feature analysis's least-squares map is noisy, and the
+/// prior shrinks what the readings do not inform. The L-BFGS step 1 (the
+/// paper's and the former default) tied feature analysis (19.99 vs 20.08 mm).
+/// Asserted with a 5 % margin.
 #[test]
-#[ignore = "fails at full scale: the full method ties feature analysis on vertex distance (docs/results/predict-sreal.md)"]
 fn sreal_reduced_vertex_distance_beats_feature_analysis() {
     let [fa, full] = sreal();
     assert!(
-        full[2] < fa[2],
-        "vertex distance {} not below feature analysis {}",
+        full[2] < 0.95 * fa[2],
+        "vertex distance {} not 5 % below feature analysis {}",
         full[2],
         fa[2]
     );

@@ -27,6 +27,7 @@
 
 pub mod energy;
 pub mod file;
+pub mod map;
 pub mod pca;
 pub mod predict;
 pub mod refine;

@@ -13,14 +13,20 @@
 //!    `(1 - lambda) E_m + lambda E_s`, `E_s` measured from the step-1 shape.
 //!
 //! [`PredictSettings::paper`] runs exactly that. The default departs in how
-//! step 1 weighs the readings ([`EnergyWeighting::PerMeasurement`]: the
-//! paper's quartic energy weighs a 1 mm stature error ~1e5 times a 1 mm
-//! error of a 30-segment girth, so its step 1 stops at the iteration cap with
-//! small girths 5-15 mm off), clamps inside step 1 and refits the rest
-//! (`step1_box`), and adds rounds while a reading misses half its allowable
-//! error ([`Continuation`]); readings with a tolerance make step 1 a MAP
-//! estimate under the training Gaussian (`step1_prior_mm`). Why and the
-//! measured effect: `docs/prediction.md`, `docs/results/predict-iso.md`.
+//! step 1 solves: each of its `s` rounds is a MAP estimate under the training
+//! Gaussian, `sum_j ((m_j - T_j) / sd_j)^2 + |w|^2` with readings trusted to
+//! 1 mm (or their tolerance), solved by Gauss-Newton on the readings' values
+//! ([`crate::map`], `step1_gauss_newton`; backtracked on the re-measured
+//! objective): it shrinks the weights the readings do not inform, which
+//! feature analysis's least-squares map fills with noise, and brought the
+//! vertex distance to held-out bodies below feature analysis's. It also
+//! clamps inside step 1 and refits the rest (`step1_box`), and adds rounds
+//! while a reading misses half its allowable error ([`Continuation`]; in
+//! step 1 these are L-BFGS rounds on `E_m` with the same prior, weighted per
+//! measurement, [`EnergyWeighting::PerMeasurement`]: the paper's quartic
+//! energy weighs a 1 mm stature error ~1e5 times a 1 mm error of a
+//! 30-segment girth). Why and the measured effect: `docs/prediction.md`,
+//! `docs/results/predict-iso.md`, `docs/results/predict-sreal.md`.
 //!
 //! The optimiser works in millimetres (see the crate docs). A measurement's
 //! energy terms are weighted by `c = (reference_tolerance / tolerance)^2`
@@ -47,6 +53,7 @@ use tapeshape_measure::Measured;
 use tapeshape_mesh::{Topology, Vec3};
 
 use crate::energy::{measurement_energy, segment_terms, SegmentTerm};
+use crate::map::MapProblem;
 use std::cell::Cell;
 
 use crate::refine::{
@@ -161,24 +168,32 @@ pub struct PredictSettings {
     /// How step 2 weights the measurements' energies (see [`EnergyWeighting`]).
     #[serde(default = "paper_weighting")]
     pub step2_weighting: EnergyWeighting,
-    /// Step 1 as a MAP estimate: `Some(tau)` adds the training Gaussian of
-    /// the normalised weights, `tau^2 |w|^2` (tau in mm), to `E_m`, so with
-    /// [`EnergyWeighting::PerMeasurement`] step 1 minimises
-    /// `sum_j (error_j / tau)^2 + |w|^2` (readings with noise tau mm).
-    /// `None` (the paper): `E_m` alone, except that with per-measurement
-    /// weighting a reading with a tolerance brings in the prior with the
-    /// reference tolerance (else its tolerance would mean nothing once step 1
-    /// converges). Not the default for exact readings: `Some(1.0)` brought
-    /// the mean vertex distance on 50 held-out bodies from 13.91 to 13.79 mm
-    /// (feature analysis 13.86), within one standard error, and moved an
-    /// in-family synthetic body away from the truth (step 2 then fills the
-    /// residuals with local deformation); `docs/results/predict-sreal.md`.
+    /// The reading noise `tau` (mm) of step 1 as a MAP estimate under the
+    /// training Gaussian of the normalised weights: the objective is
+    /// `sum_j (error_j / sd_j)^2 + |w|^2` with `sd_j = tau` for an exact
+    /// reading, scaled by a reading's tolerance over the reference tolerance.
+    /// With `step1_gauss_newton` (the default) `None` means the reference
+    /// tolerance (1 mm). Without it (L-BFGS on `E_m`), `Some(tau)` adds
+    /// `tau^2 |w|^2` to `E_m`, and `None` is the paper's `E_m` alone, except
+    /// that with per-measurement weighting a reading with a tolerance brings
+    /// in the prior with the reference tolerance (else its tolerance would
+    /// mean nothing once step 1 converges). Measured on 50 held-out bodies:
+    /// `docs/results/predict-sreal.md`.
     #[serde(default)]
     pub step1_prior_mm: Option<f64>,
     /// `Some(k)`: step 1 moves only the first k PCA components (the rest keep
     /// their start values). `None` (the paper): all.
     #[serde(default)]
     pub step1_components: Option<usize>,
+    /// Step 1's `s` rounds as the MAP estimate
+    /// `sum_j ((m_j - T_j) / sd_j)^2 + |w|^2` solved by Gauss-Newton on the
+    /// readings' values with the round's supports held ([`crate::map`]),
+    /// each step backtracked on the re-measured objective (a round whose step
+    /// cannot lower it runs L-BFGS instead); `sd_j` as in `step1_prior_mm`.
+    /// Continuation rounds run L-BFGS on `E_m` with the same prior.
+    /// `false` (the paper): L-BFGS on `E_m` in every round.
+    #[serde(default)]
+    pub step1_gauss_newton: bool,
     /// Step 1 inside the box `|w_i| <= l`: before every round after the
     /// first, the weights beyond `l` are clamped and held there, so the
     /// following rounds refit the other components to the readings (an
@@ -260,6 +275,7 @@ impl Default for PredictSettings {
             step2_weighting: EnergyWeighting::Paper,
             step1_prior_mm: None,
             step1_components: None,
+            step1_gauss_newton: true,
             step1_box: true,
             continuation: Some(Continuation::default()),
         }
@@ -270,13 +286,15 @@ impl PredictSettings {
     /// The paper's method exactly: `E_m` weighted as the paper writes it,
     /// one clamp after step 1, exactly `s` rounds per step (l = 3,
     /// lambda = 0.1, s = 3, the paper's stopping rules). The default differs
-    /// in three settings, each measured in `docs/results/predict-iso.md`:
+    /// in four settings, measured in `docs/results/predict-iso.md` and
+    /// `docs/results/predict-sreal.md`: `step1_gauss_newton`,
     /// [`EnergyWeighting::PerMeasurement`] in step 1, `step1_box` and a
     /// [`Continuation`].
     pub fn paper() -> Self {
         Self {
             step1_weighting: EnergyWeighting::Paper,
             step1_prior_mm: None,
+            step1_gauss_newton: false,
             step1_box: false,
             continuation: None,
             ..Self::default()
@@ -738,6 +756,18 @@ fn excess_mm(given: &[Given], measured: &[Measured], thresholds: &[f64]) -> f64 
         .sum()
 }
 
+/// The MAP objective of [`crate::map`] on real measured values:
+/// `sum_j ((m_j - T_j) / sd_j)^2 + |w|^2` (`sd` per given reading, mm).
+fn map_objective(given: &[Given], measured: &[Measured], sd: &[f64], w: &[f64]) -> f64 {
+    given
+        .iter()
+        .zip(measured)
+        .zip(sd)
+        .map(|((g, m), s)| ((m.value * MM_PER_M - g.target_mm) / s).powi(2))
+        .sum::<f64>()
+        + w.iter().map(|x| x * x).sum::<f64>()
+}
+
 fn clamp(w: &mut [f64], l: f64) -> Vec<usize> {
     let mut clamped = Vec::new();
     for (k, x) in w.iter_mut().enumerate() {
@@ -900,8 +930,24 @@ impl ShapeModel {
         warnings: &mut Vec<String>,
         stage: &str,
     ) -> Vec<SegmentTerm> {
+        self.build_terms_owned(given, measured, x_mm, weighting, warnings, stage)
+            .0
+    }
+
+    /// [`Self::build_terms`], also returning for each term the position in
+    /// `given` of the reading it belongs to.
+    fn build_terms_owned(
+        &self,
+        given: &[Given],
+        measured: &[Measured],
+        x_mm: &[Vec3],
+        weighting: EnergyWeighting,
+        warnings: &mut Vec<String>,
+        stage: &str,
+    ) -> (Vec<SegmentTerm>, Vec<usize>) {
         let mut terms = Vec::new();
-        for (g, m) in given.iter().zip(measured) {
+        let mut owner = Vec::new();
+        for (pos, (g, m)) in given.iter().zip(measured).enumerate() {
             match segment_terms(&m.support, x_mm, g.target_mm, g.weight) {
                 Some(mut t) => {
                     if weighting == EnergyWeighting::PerMeasurement {
@@ -914,6 +960,7 @@ impl ShapeModel {
                             t.iter_mut().for_each(|s| s.weight *= c);
                         }
                     }
+                    owner.extend(std::iter::repeat_n(pos, t.len()));
                     terms.extend(t)
                 }
                 None => warnings.push(format!(
@@ -922,7 +969,7 @@ impl ShapeModel {
                 )),
             }
         }
-        terms
+        (terms, owner)
     }
 
     /// `E_m` of a shape with its per-segment targets set on that shape (the
@@ -943,6 +990,14 @@ impl ShapeModel {
 
     /// Step-1 objective over the vertices the terms touch.
     fn localise(&self, terms: &[SegmentTerm]) -> WeightObjective {
+        let (local_terms, rows, base) = self.local_basis(terms);
+        WeightObjective::new(self.pca.n_components, &rows, &base, local_terms)
+    }
+
+    /// The terms re-indexed to the vertices they touch, with those vertices'
+    /// scaled basis rows ((3 n_local) x K, mm per unit weight) and mean
+    /// positions (flat, mm).
+    fn local_basis(&self, terms: &[SegmentTerm]) -> (Vec<SegmentTerm>, Vec<f64>, Vec<f64>) {
         let k = self.pca.n_components;
         let mut local = vec![u32::MAX; self.n_vertices()];
         let mut globals: Vec<u32> = Vec::new();
@@ -975,7 +1030,7 @@ impl ShapeModel {
             }
             base.extend((0..3).map(|c| self.pca.mean[3 * g + c] * MM_PER_M));
         }
-        WeightObjective::new(k, &rows, &base, local_terms)
+        (local_terms, rows, base)
     }
 
     /// Mahalanobis distance of the given readings under the training
@@ -1128,9 +1183,12 @@ impl ShapeModel {
             };
             if let Some(c) = cont {
                 let excess = excess_mm(&given, meas_ref, &thresholds);
+                // After Gauss-Newton rounds the first continuation round
+                // switches method, so the last rounds' progress says nothing.
+                let switched = settings.step1_gauss_newton && round == settings.s;
                 if round >= settings.s {
                     if excess == 0.0
-                        || excess > 0.95 * last_excess
+                        || (excess > 0.95 * last_excess && !switched)
                         || t1.elapsed().as_secs_f64() > c.time_budget_s
                     {
                         break;
@@ -1138,6 +1196,89 @@ impl ShapeModel {
                     boundary(observer, stage, settings.stop.max_iters)?;
                 }
                 last_excess = excess;
+            }
+            // Gauss-Newton in the s regular rounds; continuation rounds (a
+            // reading still misses, typically where a support changes too
+            // much under the step for the linearisation to hold) are L-BFGS
+            // rounds on E_m with the same prior.
+            if settings.step1_gauss_newton && round < settings.s {
+                let (terms, owner) = self.build_terms_owned(
+                    &given,
+                    meas_ref,
+                    &to_mm(x_ref),
+                    settings.step1_weighting,
+                    &mut warnings,
+                    "step 1",
+                );
+                if terms.is_empty() {
+                    break;
+                }
+                if observer.observe(&PredictProgress {
+                    stage,
+                    evaluations: 0,
+                    max_iterations: settings.stop.max_iters,
+                }) == Control::Cancel
+                {
+                    return Err(ModelError::Cancelled(stage.to_string()));
+                }
+                let (local, rows, base) = self.local_basis(&terms);
+                let tau = settings
+                    .step1_prior_mm
+                    .unwrap_or(settings.reference_tolerance * MM_PER_M);
+                let problem = MapProblem::new(
+                    self.pca.n_components,
+                    &rows,
+                    &base,
+                    &local,
+                    owner,
+                    given.iter().map(|g| g.target_mm).collect(),
+                    given.iter().map(|g| tau / g.weight.sqrt()).collect(),
+                );
+                let (w_gn, run) = problem.solve(&w, &held, settings.stop.max_iters as usize, 1e-12);
+                // The solve holds this round's supports fixed; where a support
+                // changes under the step (a hull gains or loses points, a
+                // landmark plane moves), the real values differ from the
+                // linearised ones. Backtrack on the real (re-measured) objective.
+                let sd: Vec<f64> = given.iter().map(|g| tau / g.weight.sqrt()).collect();
+                let real =
+                    |meas: &[Measured], w: &[f64]| -> f64 { map_objective(&given, meas, &sd, w) };
+                let f_here = real(meas_ref, &w);
+                let mut alpha = 1.0;
+                let mut lowered = true;
+                let mut measures = 0u64;
+                loop {
+                    let trial: Vec<f64> = w
+                        .iter()
+                        .zip(&w_gn)
+                        .map(|(a, b)| a + alpha * (b - a))
+                        .collect();
+                    let m_trial =
+                        self.measure_checked(measurer, &self.shape_unchecked(&trial), &which)?;
+                    measures += 1;
+                    if real(&m_trial, &trial) < f_here {
+                        w = trial;
+                        break;
+                    }
+                    alpha *= 0.5;
+                    if alpha < 1.0 / 64.0 {
+                        lowered = false;
+                        break;
+                    }
+                }
+                step1_runs.push(RunInfo {
+                    iterations: run.iterations as u64,
+                    evaluations: run.iterations as u64 + measures,
+                    cost_start: run.objective.0,
+                    cost_end: run.objective.1,
+                    reason: if lowered {
+                        format!("Gauss-Newton MAP, step {alpha}")
+                    } else {
+                        "Gauss-Newton MAP: no step lowered the re-measured objective; L-BFGS on E_m this round".into()
+                    },
+                });
+                if lowered {
+                    continue;
+                }
             }
             let terms = self.build_terms(
                 &given,
@@ -1151,7 +1292,14 @@ impl ShapeModel {
                 break;
             }
             let mut obj = self.localise(&terms);
-            if let Some(tau) = prior {
+            // After Gauss-Newton MAP rounds, the L-BFGS rounds keep the
+            // same prior (without it they would undo its shrinkage).
+            let prior_here = if settings.step1_gauss_newton {
+                Some(prior.unwrap_or(settings.reference_tolerance * MM_PER_M))
+            } else {
+                prior
+            };
+            if let Some(tau) = prior_here {
                 obj = obj.with_prior(tau * tau);
             }
             if held.iter().any(|&h| h) {
@@ -1176,13 +1324,25 @@ impl ShapeModel {
         let clamped_step1 = clamp(&mut w, settings.l);
         let mut x1 = self.shape_unchecked(&w);
         let mut meas1 = self.measure_checked(measurer, &x1, &which)?;
-        let (err_start, err1) = (
-            self.stage_energy(&given, &meas_start, &x_start, settings.step1_weighting),
-            self.stage_energy(&given, &meas1, &x1, settings.step1_weighting),
-        );
+        // The Gauss-Newton step 1 minimises its own objective, not E_m with
+        // per-segment targets, so it is judged by that objective.
+        let (err_start, err1, what) = if settings.step1_gauss_newton {
+            let tau = settings
+                .step1_prior_mm
+                .unwrap_or(settings.reference_tolerance * MM_PER_M);
+            let sd: Vec<f64> = given.iter().map(|g| tau / g.weight.sqrt()).collect();
+            let f = |meas: &[Measured], w: &[f64]| map_objective(&given, meas, &sd, w);
+            (f(&meas_start, &w_start), f(&meas1, &w), "MAP objective")
+        } else {
+            (
+                self.stage_energy(&given, &meas_start, &x_start, settings.step1_weighting),
+                self.stage_energy(&given, &meas1, &x1, settings.step1_weighting),
+                "measurement energy E_m (mm^4)",
+            )
+        };
         if err1 > err_start || err1.is_nan() {
             warnings.push(format!(
-                "step 1 ended with a higher measurement energy than the start (E_m {err1:.4e} vs {err_start:.4e} mm^4): kept the start shape"
+                "step 1 ended with a higher {what} than the start ({err1:.4e} vs {err_start:.4e}): kept the start shape"
             ));
             w = w_start.clone();
             x1 = x_start.clone();
