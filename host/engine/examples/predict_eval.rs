@@ -595,6 +595,7 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
 /// `--s`, `--w1`/`--w2` (`paper` or `per-measurement` energy weighting),
 /// `--prior TAU_MM` (MAP step 1), `--k1 K` (step 1 moves the first K
 /// components only), `--box on|off`, `--cont N|off` (continuation rounds),
+/// `--w2-scale W` (step 2's per-measurement reading weight),
 /// `--iters1`/`--iters2` (L-BFGS iteration caps), `--gn on|off` (step 1
 /// as a Gauss-Newton MAP, see `tapeshape_model::map`; on by default).
 fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::error::Error>> {
@@ -626,6 +627,9 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
     }
     if let Some(v) = arg(args, "--prior") {
         s.step1_prior_mm = Some(v.parse()?);
+    }
+    if let Some(v) = arg(args, "--w2-scale") {
+        s.step2_reading_weight = v.parse()?;
     }
     if let Some(v) = arg(args, "--gn") {
         s.step1_gauss_newton = v == "on";
