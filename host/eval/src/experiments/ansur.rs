@@ -18,7 +18,6 @@ use tapeshape_engine::ansur::{Ansur, Sex, Split, Subject};
 use tapeshape_engine::body::render::View;
 use tapeshape_engine::measure::MeasurementSet;
 
-use super::body::checks_text;
 use super::common::{
     informative, mean, run_all, summarise, training_data, Case, Dimensions, Reference,
 };
@@ -269,26 +268,22 @@ the row `ours (l = 10, lambda = 0.1)` shows the method with step 2 at work on th
     if let Some((f, c)) = fig {
         r.figure(&f, &c);
     }
-    for n in &notes {
-        r.text(format!("Note: {n}"));
-    }
-    r.text(format!(
+    let run_time = format!(
         "**Run time**: {:.1} min (2-core sandbox shared with other builds).",
         t0.elapsed().as_secs_f64() / 60.0
-    ));
-    if !checks.is_empty() {
-        r.text(checks_text(&checks));
-    }
-    r.write(&opts.out)?;
-    Ok(Outcome {
-        headline: names
+    );
+    super::finish(
+        r,
+        &notes,
+        run_time,
+        checks,
+        names
             .iter()
             .zip(&overall)
             .map(|(n, a)| format!("ansur {n}: {a:.2} mm"))
             .collect(),
-        checks,
-        seconds: 0.0,
-    })
+        &opts.out,
+    )
 }
 
 /// Least squares `y ~ [x, 1]` (rows = observations); returns the coefficients.
@@ -488,17 +483,6 @@ data). l = {}, lambda = {}, s = {}.",
     ));
     r.table(t);
     r.table(p);
-    for n in &notes {
-        r.text(format!("Note: {n}"));
-    }
-    r.text(format!(
-        "**Run time**: {:.1} min (2-core sandbox shared with other builds).",
-        t0.elapsed().as_secs_f64() / 60.0
-    ));
-    if !checks.is_empty() {
-        r.text(checks_text(&checks));
-    }
-    r.write(&opts.out)?;
     let mut headline: Vec<String> = names
         .iter()
         .zip(&overall)
@@ -509,9 +493,9 @@ data). l = {}, lambda = {}, s = {}.",
         overall[names.len()],
         overall[names.len() + 1]
     ));
-    Ok(Outcome {
-        headline,
-        checks,
-        seconds: 0.0,
-    })
+    let run_time = format!(
+        "**Run time**: {:.1} min (2-core sandbox shared with other builds).",
+        t0.elapsed().as_secs_f64() / 60.0
+    );
+    super::finish(r, &notes, run_time, checks, headline, &opts.out)
 }

@@ -402,24 +402,13 @@ pub fn body_synthetic(opts: &Options, roster: &Roster) -> Result<Outcome, EvalEr
     for (f, c) in &figs {
         r.figure(f, c);
     }
-    for n in &train_notes {
-        r.text(format!("Note: {n}"));
-    }
-    r.text(format!(
+    let run_time = format!(
         "**Run time**: {:.1} min in all on this machine (2-core x86_64 sandbox, shared with other engineers' builds, so timings are under load), of which training the methods {:.1} s; {}.",
         t0.elapsed().as_secs_f64() / 60.0,
         train_secs,
         if opts.quick { "quick mode" } else { "full sizes" }
-    ));
-    if !checks.is_empty() {
-        r.text(checks_text(&checks));
-    }
-    r.write(&opts.out)?;
-    Ok(Outcome {
-        headline,
-        checks,
-        seconds: 0.0,
-    })
+    );
+    super::finish(r, &train_notes, run_time, checks, headline, &opts.out)
 }
 
 /// The two readings of S_k and their Mahalanobis radii.
@@ -651,25 +640,14 @@ pub fn body_real_table(opts: &Options, roster: &Roster) -> Result<Outcome, EvalE
     for (f, c) in &figs {
         r.figure(f, c);
     }
-    for n in &train_notes {
-        r.text(format!("Note: {n}"));
-    }
-    r.text(format!(
-        "**Run time**: {:.1} min (2-core sandbox shared with other builds).",
-        t0.elapsed().as_secs_f64() / 60.0
-    ));
-    if !checks.is_empty() {
-        r.text(checks_text(&checks));
-    }
-    r.write(&opts.out)?;
     let headline = names
         .iter()
         .zip(&all_avg)
         .map(|(n, a)| format!("S_real {n}: {a:.3} mm"))
         .collect();
-    Ok(Outcome {
-        headline,
-        checks,
-        seconds: 0.0,
-    })
+    let run_time = format!(
+        "**Run time**: {:.1} min (2-core sandbox shared with other builds).",
+        t0.elapsed().as_secs_f64() / 60.0
+    );
+    super::finish(r, &train_notes, run_time, checks, headline, &opts.out)
 }

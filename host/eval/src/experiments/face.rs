@@ -6,7 +6,7 @@ use tapeshape_engine::body::BodyModel;
 use tapeshape_engine::dataset::{generate_faces, remap_anatomy, PopulationSettings};
 use tapeshape_engine::measure::MeasurementSet;
 
-use super::body::{checks_text, method_row_figure};
+use super::body::method_row_figure;
 use super::common::{
     informative, progress_bar, run_all, summarise, training_data, Case, Dimensions,
     MeasurementGaussian, Reference,
@@ -184,19 +184,16 @@ points at Mahalanobis distance k (mu + k L u, u uniform on the sphere). Error = 
     for (f, c) in &figs {
         r.figure(f, c);
     }
-    for n in &notes {
-        r.text(format!("Note: {n}"));
-    }
-    r.text(format!(
+    let run_time = format!(
         "**Run time**: {:.1} min (training {train_secs:.1} s; 2-core sandbox shared with other builds).",
         t0.elapsed().as_secs_f64() / 60.0
-    ));
-    if !checks.is_empty() {
-        r.text(checks_text(&checks));
-    }
-    r.write(&opts.out)?;
-    Ok(Outcome {
-        headline: names
+    );
+    super::finish(
+        r,
+        &notes,
+        run_time,
+        checks,
+        names
             .iter()
             .enumerate()
             .map(|(mi, n)| {
@@ -210,7 +207,6 @@ points at Mahalanobis distance k (mu + k L u, u uniform on the sphere). Error = 
                 )
             })
             .collect(),
-        checks,
-        seconds: 0.0,
-    })
+        &opts.out,
+    )
 }

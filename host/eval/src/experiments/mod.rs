@@ -223,6 +223,32 @@ pub struct Outcome {
     pub seconds: f64,
 }
 
+/// The common ending of every experiment: appends the training notes, the
+/// run-time line and (in quick mode) the checks to `r`, writes the report
+/// into `out`, and returns the outcome with `headline`.
+pub(crate) fn finish(
+    mut r: crate::report::Report,
+    notes: &[String],
+    run_time: String,
+    checks: Vec<Check>,
+    headline: Vec<String>,
+    out: &std::path::Path,
+) -> Result<Outcome, EvalError> {
+    for n in notes {
+        r.text(format!("Note: {n}"));
+    }
+    r.text(run_time);
+    if !checks.is_empty() {
+        r.text(body::checks_text(&checks));
+    }
+    r.write(out)?;
+    Ok(Outcome {
+        headline,
+        checks,
+        seconds: 0.0,
+    })
+}
+
 /// Runs `experiment` with `roster`'s methods, writing into `opts.out`.
 pub fn run(experiment: Experiment, opts: &Options, roster: &Roster) -> Result<Outcome, EvalError> {
     let t0 = std::time::Instant::now();

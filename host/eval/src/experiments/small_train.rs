@@ -13,7 +13,7 @@ use tapeshape_engine::ansur::Ansur;
 use tapeshape_engine::body::render::View;
 use tapeshape_engine::measure::MeasurementSet;
 
-use super::body::{checks_text, signed_figure};
+use super::body::signed_figure;
 use super::common::{informative, run_all, summarise, training_data, Case, Dimensions, Reference};
 use super::{beats, population, recipe, train, EvalError, Options, Outcome, Params, Roster};
 use crate::figures::{body_views, common_region, expand, grid, label, save, Paint};
@@ -311,26 +311,22 @@ the paper: l = {}, lambda = {}, s = {}.",
     for (f, c) in &sig {
         r.figure(f, c);
     }
-    for n in &notes {
-        r.text(format!("Note: {n}"));
-    }
-    r.text(format!(
+    let run_time = format!(
         "**Run time**: {:.1} min (2-core sandbox shared with other builds).",
         t0.elapsed().as_secs_f64() / 60.0
-    ));
-    if !checks.is_empty() {
-        r.text(checks_text(&checks));
-    }
-    r.write(&opts.out)?;
-    Ok(Outcome {
-        headline: names
+    );
+    super::finish(
+        r,
+        &notes,
+        run_time,
+        checks,
+        names
             .iter()
             .zip(errs.iter().zip(&vdist))
             .map(|(n, (e, v))| {
                 format!("small-train {n}: error {e:.3} mm, vertex distance {v:.2} mm")
             })
             .collect(),
-        checks,
-        seconds: 0.0,
-    })
+        &opts.out,
+    )
 }

@@ -211,3 +211,26 @@ pub(crate) fn informative(stats: &[(f64, f64)], j: usize) -> bool {
     let max = stats.iter().map(|s| s.1).fold(0.0, f64::max);
     stats[j].1 > CONSTANT_SD_FRACTION * max && stats[j].1 > 0.0
 }
+
+/// The training set's measurement names, per-measurement (mean, SD) (see
+/// [`column_stats`]) and the indices of the informative measurements, the
+/// ones a method standardises and uses. Errors (naming `method`) if every
+/// measurement is constant on the training set.
+#[allow(clippy::type_complexity)]
+pub(crate) fn informative_columns(
+    method: &str,
+    data: &TrainingData,
+) -> Result<(Vec<String>, Vec<(f64, f64)>, Vec<usize>), MethodError> {
+    let names = measurement_names(data);
+    let stats = column_stats(&data.measurements);
+    let used: Vec<usize> = (0..names.len())
+        .filter(|&j| informative(&stats, j))
+        .collect();
+    if used.is_empty() {
+        return Err(train_err(
+            method,
+            "every measurement is constant on the training set",
+        ));
+    }
+    Ok((names, stats, used))
+}

@@ -33,10 +33,7 @@ use std::sync::Arc;
 use nalgebra::DMatrix;
 use tapeshape_model::ShapeModel;
 
-use super::common::{
-    column_stats, fit_model, given_targets, informative, measurement_names, predict_err, train_err,
-    training_weights,
-};
+use super::common::{fit_model, given_targets, predict_err, train_err, training_weights};
 use crate::{Method, MethodError, MethodOutput, TrainingData};
 
 /// Candidate width factors `c` (multiples of the mean nearest-neighbour
@@ -156,17 +153,7 @@ impl RbfInterpolation {
                 ));
             }
         }
-        let names = measurement_names(data);
-        let stats = column_stats(&data.measurements);
-        let used: Vec<usize> = (0..names.len())
-            .filter(|&j| informative(&stats, j))
-            .collect();
-        if used.is_empty() {
-            return Err(train_err(
-                Self::NAME,
-                "every measurement is constant on the training set",
-            ));
-        }
+        let (names, stats, used) = super::common::informative_columns(Self::NAME, data)?;
         let z: Vec<Vec<f64>> = data
             .measurements
             .iter()

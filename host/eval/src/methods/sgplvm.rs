@@ -54,10 +54,7 @@ use nalgebra::{DMatrix, DVector};
 use tapeshape_model::refine::{minimise, LbfgsImpl, Objective, RunInfo, StopRule};
 use tapeshape_model::ShapeModel;
 
-use super::common::{
-    column_stats, fit_model, given_targets, informative, measurement_names, predict_err, train_err,
-    training_weights,
-};
+use super::common::{fit_model, given_targets, predict_err, train_err, training_weights};
 use crate::{Method, MethodError, MethodOutput, TrainingData};
 
 /// Noise variance floor added to every kernel diagonal (keeps the Cholesky
@@ -415,17 +412,7 @@ impl Sgplvm {
         if settings.starts == 0 {
             return Err(train_err(Self::NAME, "need at least one latent start"));
         }
-        let names = measurement_names(data);
-        let stats = column_stats(&data.measurements);
-        let used: Vec<usize> = (0..names.len())
-            .filter(|&j| informative(&stats, j))
-            .collect();
-        if used.is_empty() {
-            return Err(train_err(
-                Self::NAME,
-                "every measurement is constant on the training set",
-            ));
-        }
+        let (names, stats, used) = super::common::informative_columns(Self::NAME, data)?;
         let y_p = DMatrix::from_fn(n, used.len(), |i, c| {
             let j = used[c];
             (data.measurements[i][j] - stats[j].0) / stats[j].1
