@@ -521,3 +521,60 @@ fn a_resumed_session_shows_the_operator_marks_it_was_left_with() {
     assert_ne!(current(&a).as_deref(), Some("stature"));
     assert_ne!(current(&a).as_deref(), Some("chest"));
 }
+
+/// A reading flagged before a restart and never answered comes back
+/// flagged: the resumed readings without a kept-flagged mark are checked
+/// again, and a flag moves the tape to that reading; a kept one is not
+/// re-checked.
+#[test]
+fn an_unanswered_flag_comes_back_after_a_restart() {
+    let mut a = app(false);
+    connect(&mut a);
+    let fx = send(
+        &mut a,
+        [Event::SessionReady(tapeshape::tui::app::SessionView {
+            id: SessionId(4),
+            customer: "c-test".into(),
+            set: "quick".into(),
+            notes: None,
+            measurements: quick(),
+            readings: vec![("chest".into(), 5_800), ("waist".into(), 8_000)],
+            superseded: Vec::new(),
+            marks: vec![("waist".into(), Mark::KeptFlagged)],
+        })],
+    );
+    let checks: Vec<&tapeshape::tui::services::CheckRequest> = fx
+        .iter()
+        .filter_map(|f| match f {
+            Effect::Check(r) => Some(r),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(checks.len(), 1, "{fx:?}");
+    assert_eq!(checks[0].name, "chest");
+    assert_eq!(checks[0].value_mm, 580.0);
+    assert!(checks[0]
+        .others
+        .iter()
+        .any(|(n, v)| n == "waist" && *v == 800.0));
+    let s = a.session.as_ref().unwrap();
+    let at = |n: &str| s.items.iter().position(|i| i.info.name == n).unwrap();
+    let (chest, waist) = (at("chest"), at("waist"));
+    assert_eq!(s.items[chest].state, ItemState::Checking);
+    assert_eq!(s.items[waist].state, ItemState::Done);
+    send(
+        &mut a,
+        [Event::Checked {
+            name: "chest".into(),
+            value_tenth_mm: 5_800,
+            outcome: tapeshape::tui::services::CheckOutcome {
+                flag: Some("chest 58.0 cm is 6 SD below the others' prediction".into()),
+                unit_slip: None,
+                note: None,
+            },
+        }],
+    );
+    let s = a.session.as_ref().unwrap();
+    assert_eq!(s.items[chest].state, ItemState::Flagged);
+    assert_eq!(current(&a).as_deref(), Some("chest"));
+}

@@ -1120,7 +1120,7 @@ fn on_session_ready(app: &mut App, view: SessionView, fx: &mut Vec<Effect>) {
         app.notice = None;
     }
     match after {
-        AfterOpen::Measure => {}
+        AfterOpen::Measure => recheck_resumed(app, fx),
         AfterOpen::Estimate => start_estimate(app, fx, false),
         AfterOpen::Export => start_estimate(app, fx, true),
     }
@@ -1635,6 +1635,48 @@ fn stored_mark(item: &Item) -> Option<Mark> {
         Some(Mark::KeptFlagged)
     } else {
         None
+    }
+}
+
+/// A reading the check flagged before a restart, and that the operator had
+/// not answered (kept with Enter, or retaken), must come back flagged: the
+/// store keeps only answers (`Mark::KeptFlagged`), so every resumed reading
+/// without that mark is checked again against the other resumed readings.
+/// The check depends only on the values, so a reading that passed passes
+/// again; the tape's unit at capture is not stored, so a unit slip is looked
+/// for as on a metric tape.
+fn recheck_resumed(app: &mut App, fx: &mut Vec<Effect>) {
+    let Some(s) = app.session.as_mut() else {
+        return;
+    };
+    let taken: Vec<(usize, u32)> = s
+        .items
+        .iter()
+        .enumerate()
+        .filter(|(_, it)| it.state == ItemState::Done && !it.kept_flagged)
+        .filter_map(|(k, it)| it.value.map(|v| (k, v)))
+        .collect();
+    for &(i, v) in &taken {
+        let others: Vec<(String, f64)> = s
+            .items
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != i)
+            .filter_map(|(_, it)| {
+                it.value
+                    .map(|o| (it.info.name.clone(), f64::from(o) / 10.0))
+            })
+            .collect();
+        fx.push(Effect::Check(CheckRequest {
+            set: s.set.clone(),
+            name: s.items[i].info.name.clone(),
+            value_mm: f64::from(v) / 10.0,
+            others,
+            tape_inches: false,
+        }));
+    }
+    for &(i, _) in &taken {
+        s.items[i].state = ItemState::Checking;
     }
 }
 

@@ -92,8 +92,12 @@ pub fn quick() -> Vec<MeasurementInfo> {
 }
 
 /// Session 3 of customer c-test on the quick set, opened with `readings`.
+///
+/// The resumed readings are checked again (an unanswered flag must come
+/// back after a restart); like the runner, this answers every such check,
+/// here with a pass, and returns the effects of both steps.
 pub fn open_session(app: &mut App, readings: &[(&str, u32)]) -> Vec<Effect> {
-    send(
+    let mut fx = send(
         app,
         [Event::SessionReady(SessionView {
             id: SessionId(3),
@@ -105,7 +109,21 @@ pub fn open_session(app: &mut App, readings: &[(&str, u32)]) -> Vec<Effect> {
             superseded: Vec::new(),
             marks: Vec::new(),
         })],
-    )
+    );
+    let answers: Vec<Event> = fx
+        .iter()
+        .filter_map(|f| match f {
+            Effect::Check(r) => Some(Event::Checked {
+                name: r.name.clone(),
+                value_tenth_mm: (r.value_mm * 10.0).round() as u32,
+                outcome: CheckOutcome::default(),
+            }),
+            _ => None,
+        })
+        .collect();
+    fx.retain(|f| !matches!(f, Effect::Check(_)));
+    fx.extend(send(app, answers));
+    fx
 }
 
 /// The link committed a reading of `name` to session 3.
