@@ -32,6 +32,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::energy::SegmentTerm;
+use crate::refine::segment_rows;
 
 /// The step-1 MAP problem of one round (see the module docs).
 pub struct MapProblem {
@@ -76,30 +77,7 @@ impl MapProblem {
     ) -> Self {
         assert_eq!(terms.len(), owner.len());
         assert_eq!(targets.len(), sd.len());
-        let mut rows = vec![0.0; terms.len() * 3 * k];
-        let mut base = vec![0.0; terms.len() * 3];
-        for (e, t) in terms.iter().enumerate() {
-            let parts = [
-                (t.p1.a, 1.0 - t.p1.t),
-                (t.p1.b, t.p1.t),
-                (t.p0.a, -(1.0 - t.p0.t)),
-                (t.p0.b, -t.p0.t),
-            ];
-            for (v, coef) in parts {
-                if coef == 0.0 {
-                    continue;
-                }
-                let v = v as usize;
-                for c in 0..3 {
-                    base[3 * e + c] += coef * vertex_base[3 * v + c];
-                    let src = &vertex_rows[(3 * v + c) * k..(3 * v + c + 1) * k];
-                    let dst = &mut rows[(3 * e + c) * k..(3 * e + c + 1) * k];
-                    for (d, s) in dst.iter_mut().zip(src) {
-                        *d += coef * s;
-                    }
-                }
-            }
-        }
+        let (rows, base) = segment_rows(k, vertex_rows, vertex_base, terms);
         Self {
             k,
             rows,

@@ -1176,6 +1176,12 @@ impl ShapeModel {
                     .any(|g| targets[g.index].is_some_and(|t| t.tolerance.is_some())))
             .then_some(settings.reference_tolerance * MM_PER_M)
         });
+        // Reading noise (mm) of the Gauss-Newton MAP: tau scaled by each
+        // reading's tolerance (weight = (reference / tolerance)^2).
+        let map_tau = settings
+            .step1_prior_mm
+            .unwrap_or(settings.reference_tolerance * MM_PER_M);
+        let map_sd: Vec<f64> = given.iter().map(|g| map_tau / g.weight.sqrt()).collect();
         let mut held = vec![false; self.n_components()];
         if let Some(k) = settings.step1_components {
             held.iter_mut().skip(k).for_each(|h| *h = true);
@@ -1225,18 +1231,18 @@ impl ShapeModel {
             // reading still misses, typically where a support changes too
             // much under the step for the linearisation to hold) are L-BFGS
             // rounds on E_m with the same prior.
+            let (terms, owner) = self.build_terms_owned(
+                &given,
+                meas_ref,
+                &to_mm(x_ref),
+                (settings.step1_weighting, 1.0),
+                &mut warnings,
+                "step 1",
+            );
+            if terms.is_empty() {
+                break;
+            }
             if settings.step1_gauss_newton && round < settings.s {
-                let (terms, owner) = self.build_terms_owned(
-                    &given,
-                    meas_ref,
-                    &to_mm(x_ref),
-                    (settings.step1_weighting, 1.0),
-                    &mut warnings,
-                    "step 1",
-                );
-                if terms.is_empty() {
-                    break;
-                }
                 if observer.observe(&PredictProgress {
                     stage,
                     evaluations: 0,
@@ -1246,9 +1252,6 @@ impl ShapeModel {
                     return Err(ModelError::Cancelled(stage.to_string()));
                 }
                 let (local, rows, base) = self.local_basis(&terms);
-                let tau = settings
-                    .step1_prior_mm
-                    .unwrap_or(settings.reference_tolerance * MM_PER_M);
                 let problem = MapProblem::new(
                     self.pca.n_components,
                     &rows,
@@ -1256,16 +1259,16 @@ impl ShapeModel {
                     &local,
                     owner,
                     given.iter().map(|g| g.target_mm).collect(),
-                    given.iter().map(|g| tau / g.weight.sqrt()).collect(),
+                    map_sd.clone(),
                 );
                 let (w_gn, run) = problem.solve(&w, &held, settings.stop.max_iters as usize, 1e-12);
                 // The solve holds this round's supports fixed; where a support
                 // changes under the step (a hull gains or loses points, a
                 // landmark plane moves), the real values differ from the
                 // linearised ones. Backtrack on the real (re-measured) objective.
-                let sd: Vec<f64> = given.iter().map(|g| tau / g.weight.sqrt()).collect();
-                let real =
-                    |meas: &[Measured], w: &[f64]| -> f64 { map_objective(&given, meas, &sd, w) };
+                let real = |meas: &[Measured], w: &[f64]| -> f64 {
+                    map_objective(&given, meas, &map_sd, w)
+                };
                 let f_here = real(meas_ref, &w);
                 let mut alpha = 1.0;
                 let mut lowered = true;
@@ -1304,17 +1307,6 @@ impl ShapeModel {
                     continue;
                 }
             }
-            let terms = self.build_terms(
-                &given,
-                meas_ref,
-                &to_mm(x_ref),
-                (settings.step1_weighting, 1.0),
-                &mut warnings,
-                "step 1",
-            );
-            if terms.is_empty() {
-                break;
-            }
             let mut obj = self.localise(&terms);
             // After Gauss-Newton MAP rounds, the L-BFGS rounds keep the
             // same prior (without it they would undo its shrinkage).
@@ -1351,11 +1343,7 @@ impl ShapeModel {
         // The Gauss-Newton step 1 minimises its own objective, not E_m with
         // per-segment targets, so it is judged by that objective.
         let (err_start, err1, what) = if settings.step1_gauss_newton {
-            let tau = settings
-                .step1_prior_mm
-                .unwrap_or(settings.reference_tolerance * MM_PER_M);
-            let sd: Vec<f64> = given.iter().map(|g| tau / g.weight.sqrt()).collect();
-            let f = |meas: &[Measured], w: &[f64]| map_objective(&given, meas, &sd, w);
+            let f = |meas: &[Measured], w: &[f64]| map_objective(&given, meas, &map_sd, w);
             (f(&meas_start, &w_start), f(&meas1, &w), "MAP objective")
         } else {
             (

@@ -522,27 +522,7 @@ impl WeightObjective {
         vertex_base: &[f64],
         terms: Vec<SegmentTerm>,
     ) -> Self {
-        let mut rows = vec![0.0; terms.len() * 3 * k];
-        let mut base = vec![0.0; terms.len() * 3];
-        for (e, t) in terms.iter().enumerate() {
-            let parts = [
-                (t.p1.a, 1.0 - t.p1.t),
-                (t.p1.b, t.p1.t),
-                (t.p0.a, -(1.0 - t.p0.t)),
-                (t.p0.b, -t.p0.t),
-            ];
-            for (v, coef) in parts {
-                if coef == 0.0 {
-                    continue;
-                }
-                let v = v as usize;
-                for c in 0..3 {
-                    base[3 * e + c] += coef * vertex_base[3 * v + c];
-                    let src = &vertex_rows[(3 * v + c) * k..(3 * v + c + 1) * k];
-                    axpy(coef, src, &mut rows[(3 * e + c) * k..(3 * e + c + 1) * k]);
-                }
-            }
-        }
+        let (rows, base) = segment_rows(k, vertex_rows, vertex_base, &terms);
         Self {
             k,
             rows,
@@ -569,6 +549,41 @@ impl WeightObjective {
         self.held = held;
         self
     }
+}
+
+/// Each term's segment vector `d_e(w) = C_e w + c_e` as an affine function of
+/// the K weights: returns the rows of `C_e` (3 per term, K entries each,
+/// row-major) and `c_e` (3 per term), from the scaled basis rows
+/// `vertex_rows` ((3 n_local) x K) and mean positions `vertex_base` (flat,
+/// 3 n_local) of the local vertices the terms' points index.
+pub(crate) fn segment_rows(
+    k: usize,
+    vertex_rows: &[f64],
+    vertex_base: &[f64],
+    terms: &[SegmentTerm],
+) -> (Vec<f64>, Vec<f64>) {
+    let mut rows = vec![0.0; terms.len() * 3 * k];
+    let mut base = vec![0.0; terms.len() * 3];
+    for (e, t) in terms.iter().enumerate() {
+        let parts = [
+            (t.p1.a, 1.0 - t.p1.t),
+            (t.p1.b, t.p1.t),
+            (t.p0.a, -(1.0 - t.p0.t)),
+            (t.p0.b, -t.p0.t),
+        ];
+        for (v, coef) in parts {
+            if coef == 0.0 {
+                continue;
+            }
+            let v = v as usize;
+            for c in 0..3 {
+                base[3 * e + c] += coef * vertex_base[3 * v + c];
+                let src = &vertex_rows[(3 * v + c) * k..(3 * v + c + 1) * k];
+                axpy(coef, src, &mut rows[(3 * e + c) * k..(3 * e + c + 1) * k]);
+            }
+        }
+    }
+    (rows, base)
 }
 
 impl Objective for WeightObjective {

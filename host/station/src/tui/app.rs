@@ -1524,18 +1524,9 @@ fn on_link(app: &mut App, ev: LinkEvent, fx: &mut Vec<Effect>) {
             item.flag = None;
             item.unit_slip = None;
             item.kept_flagged = false;
-            let others: Vec<(String, f64)> = s
-                .items
-                .iter()
-                .enumerate()
-                .filter(|(k, it)| {
-                    *k != i && matches!(it.state, ItemState::Done | ItemState::Flagged)
-                })
-                .filter_map(|(_, it)| {
-                    it.value
-                        .map(|v| (it.info.name.clone(), f64::from(v) / 10.0))
-                })
-                .collect();
+            let others = other_values(&s.items, i, |it| {
+                matches!(it.state, ItemState::Done | ItemState::Flagged)
+            });
             fx.push(Effect::Check(CheckRequest {
                 set: s.set.clone(),
                 name: reading.measurement.clone(),
@@ -1657,16 +1648,7 @@ fn recheck_resumed(app: &mut App, fx: &mut Vec<Effect>) {
         .filter_map(|(k, it)| it.value.map(|v| (k, v)))
         .collect();
     for &(i, v) in &taken {
-        let others: Vec<(String, f64)> = s
-            .items
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| *k != i)
-            .filter_map(|(_, it)| {
-                it.value
-                    .map(|o| (it.info.name.clone(), f64::from(o) / 10.0))
-            })
-            .collect();
+        let others = other_values(&s.items, i, |_| true);
         fx.push(Effect::Check(CheckRequest {
             set: s.set.clone(),
             name: s.items[i].info.name.clone(),
@@ -1678,6 +1660,20 @@ fn recheck_resumed(app: &mut App, fx: &mut Vec<Effect>) {
     for &(i, _) in &taken {
         s.items[i].state = ItemState::Checking;
     }
+}
+
+/// The values (mm) of the items other than `i` that have one and pass
+/// `include`: what a reading is checked against.
+fn other_values(items: &[Item], i: usize, include: impl Fn(&Item) -> bool) -> Vec<(String, f64)> {
+    items
+        .iter()
+        .enumerate()
+        .filter(|(k, it)| *k != i && include(it))
+        .filter_map(|(_, it)| {
+            it.value
+                .map(|v| (it.info.name.clone(), f64::from(v) / 10.0))
+        })
+        .collect()
 }
 
 fn on_checked(app: &mut App, name: &str, value_tenth_mm: u32, outcome: CheckOutcome) {
