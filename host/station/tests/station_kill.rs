@@ -41,6 +41,22 @@ async fn station_killed_at_random_keeps_every_reading_once() {
         } else {
             station(&port, &data, &["--resume"])
         };
+        if first {
+            // The first run creates the session; a kill before that leaves
+            // nothing to resume (every later `--resume` then exits with "no
+            // open session"). A debug binary under CI load can take longer to
+            // get there than the first random delay, so the first kill waits
+            // for the first acknowledged reading.
+            let started = tokio::time::Instant::now() + Duration::from_secs(60);
+            state.lock().unwrap().take(value_of(0));
+            while state.lock().unwrap().acked.is_none() {
+                assert!(
+                    tokio::time::Instant::now() < started,
+                    "the first station run acknowledged nothing in 60 s"
+                );
+                tokio::time::sleep(Duration::from_millis(15)).await;
+            }
+        }
         first = false;
         let deadline = tokio::time::Instant::now() + next_delay();
         while tokio::time::Instant::now() < deadline {
