@@ -2,7 +2,7 @@
 //!
 //! Why a seeded plan instead of ad-hoc randomness in each test: when an end-to-end run fails,
 //! the same seed replays the same flipped bits, dropped bytes and unplugs, so the failure can
-//! be reproduced and debugged. ChaCha8 (through `rand`) is portable: the same seed gives the
+//! be reproduced and debugged. ChaCha8 (`rand_chacha`) is portable: the same seed gives the
 //! same faults on every machine and every build.
 //!
 //! A [`FaultPlan`] says *how often* each fault happens; a [`FaultInjector`] applies it to the
@@ -17,8 +17,8 @@
 
 use std::time::Duration;
 
-use rand::rngs::ChaCha8Rng;
-use rand::{RngExt, SeedableRng};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 /// Something the driver of the stream must do at a point in the stream.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

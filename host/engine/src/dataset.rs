@@ -47,6 +47,7 @@ use tapeshape_measure::{CompiledSet, MeasurementSet};
 use tapeshape_mesh::{Mesh, Topology, Vec3};
 
 use crate::ansur::{Ansur, Sex, Split, Subject};
+use crate::seeded;
 
 /// Magic bytes at the start of a dataset file.
 pub const MAGIC: &[u8; 8] = b"TSDATAST";
@@ -624,10 +625,10 @@ fn draw_subjects<'a>(
             .subjects(Some(sex), Split::Train)
             .filter(|s| (18.0..=90.0).contains(&s.age_years))
             .collect();
-        // Fisher-Yates with our seeded generator (rand's shuffle would do the
-        // same; this keeps the order independent of rand's internals).
+        // Fisher-Yates with our seeded generator, drawing each index with
+        // `seeded` so that the order does not depend on rand's internals.
         for i in (1..v.len()).rev() {
-            let j = rng.gen_range(0..=i);
+            let j = seeded::index_in_inclusive(rng, 0..=i);
             v.swap(i, j);
         }
         pools.insert(sex, v);
@@ -635,7 +636,7 @@ fn draw_subjects<'a>(
     let mut next: BTreeMap<Sex, usize> = BTreeMap::new();
     (0..settings.n)
         .map(|_| {
-            let sex = if rng.gen_bool(settings.male_fraction) {
+            let sex = if rng.random_bool(settings.male_fraction) {
                 Sex::Male
             } else {
                 Sex::Female
@@ -693,8 +694,16 @@ pub fn generate_population(
                 african,
                 asian,
                 caucasian,
-                cupsize: if male { 0.5 } else { rng.gen_range(0.3..0.7) },
-                firmness: if male { 0.5 } else { rng.gen_range(0.3..0.7) },
+                cupsize: if male {
+                    0.5
+                } else {
+                    rng.random_range(0.3..0.7)
+                },
+                firmness: if male {
+                    0.5
+                } else {
+                    rng.random_range(0.3..0.7)
+                },
                 ..Phenotype::default()
             };
             // Start (and prior centre) of the weight parameter from the
@@ -1171,21 +1180,21 @@ pub fn generate_faces(
             let mut rng = ChaCha8Rng::seed_from_u64(
                 settings.seed ^ (0xd1b5_4a32_d192_ed03u64.wrapping_mul(i as u64 + 1)),
             );
-            let male = rng.gen_bool(settings.male_fraction);
-            let years = rng.gen_range(18.0..=90.0);
+            let male = rng.random_bool(settings.male_fraction);
+            let years = seeded::uniform_inclusive(&mut rng, 18.0..=90.0);
             let ph = Phenotype {
                 gender: if male { 0.0 } else { 1.0 },
                 age: age_from_years(years).expect("adult age"),
-                african: rng.gen_range(0.0..1.0),
-                asian: rng.gen_range(0.0..1.0),
-                caucasian: rng.gen_range(0.0..1.0),
-                muscle: rng.gen_range(0.3..0.7),
-                weight: rng.gen_range(0.3..0.7),
+                african: rng.random_range(0.0..1.0),
+                asian: rng.random_range(0.0..1.0),
+                caucasian: rng.random_range(0.0..1.0),
+                muscle: rng.random_range(0.3..0.7),
+                weight: rng.random_range(0.3..0.7),
                 ..Phenotype::default()
             };
             let mut lc = LocalChanges::new();
             for l in &labels {
-                lc.set(l, rng.gen_range(-0.8..=0.8))
+                lc.set(l, seeded::uniform_inclusive(&mut rng, -0.8..=0.8))
                     .expect("label from the list");
             }
             let mesh = body.generate(&ph, &lc)?;

@@ -4,8 +4,9 @@
 //! The engine is split into small crates that are re-exported here:
 //! [`mesh`] (meshes, topology, I/O), [`body`] (the MakeHuman body generator,
 //! landmarks, parts), [`measure`] (measurement operators and sets). This
-//! crate adds [`ansur`] (the embedded ANSUR II survey and its fixed split) and
-//! [`dataset`] (populations, faces, imports and the dataset file format).
+//! crate adds [`ansur`] (the embedded ANSUR II survey and its fixed split),
+//! [`dataset`] (populations, faces, imports and the dataset file format) and
+//! [`seeded`] (random draws whose streams do not change with the `rand` release).
 //!
 //! Units: metres inside, station frame (Z up, feet at z = 0, +Y front, +X the
 //! body's right).
@@ -13,6 +14,7 @@
 pub mod ansur;
 pub mod dataset;
 pub mod predict;
+pub mod seeded;
 pub mod stats;
 
 pub use tapeshape_body as body;

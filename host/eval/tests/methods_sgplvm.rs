@@ -37,11 +37,11 @@ fn joint_likelihood_gradient_matches_finite_differences() {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let (n, q) = (12, 3);
     let spaces = vec![
-        DMatrix::from_fn(n, 5, |_, _| rng.gen_range(-1.0..1.0)),
-        DMatrix::from_fn(n, 7, |_, _| rng.gen_range(-2.0..2.0)),
+        DMatrix::from_fn(n, 5, |_, _| rng.random_range(-1.0..1.0)),
+        DMatrix::from_fn(n, 7, |_, _| rng.random_range(-2.0..2.0)),
     ];
     let obj = JointLikelihood { spaces, q };
-    let mut theta: Vec<f64> = (0..n * q).map(|_| rng.gen_range(-1.0..1.0)).collect();
+    let mut theta: Vec<f64> = (0..n * q).map(|_| rng.random_range(-1.0..1.0)).collect();
     theta.extend([0.1, -0.3, -2.0, -1.5, 0.5, 0.2, -3.0, -1.0]);
     assert_eq!(theta.len(), obj.n_params());
     let worst = gradient_check(&obj, &theta);
@@ -52,8 +52,8 @@ fn joint_likelihood_gradient_matches_finite_differences() {
 fn latent_objective_gradient_matches_finite_differences() {
     let mut rng = ChaCha8Rng::seed_from_u64(4);
     let (n, q, d) = (15, 3, 4);
-    let x = DMatrix::from_fn(n, q, |_, _| rng.gen_range(-1.5..1.5));
-    let y = DMatrix::from_fn(n, d, |_, _| rng.gen_range(-1.0..1.0));
+    let x = DMatrix::from_fn(n, q, |_, _| rng.random_range(-1.5..1.5));
+    let y = DMatrix::from_fn(n, d, |_, _| rng.random_range(-1.0..1.0));
     let kernel = Kernel {
         alpha: 1.3,
         gamma: 0.8,
