@@ -56,6 +56,7 @@ use serde::{Deserialize, Serialize};
 use tapeshape_measure::{CompiledSet, MeasureError, MeasurementSet, BUILTIN_SETS};
 use tapeshape_mesh::{Anatomy, Mesh, Topology, Vec3};
 pub use tapeshape_model::predict::PredictionReport;
+use tapeshape_model::regress::JointGaussian;
 pub use tapeshape_model::{
     Control, FitSettings, ModelError, ModelFile, PredictObserver, PredictProgress, PredictSettings,
     PredictStage, ShapeModel, Target,
@@ -483,23 +484,36 @@ pub struct Engine {
 /// generator with few degrees of freedom), so judging a real customer's
 /// readings by them refuses real people (measured: every ANSUR test-split
 /// subject with the full ansur set was refused).
-#[derive(Debug, Default)]
+///
+/// The statistics are a [`JointGaussian`] of the ANSUR columns alone (no
+/// weights), so a reading's prediction from the others is the model's one
+/// Gaussian conditional, [`JointGaussian::conditional`].
+#[derive(Debug)]
 struct RealStats {
-    /// Per model measurement: its row in `mean`/`cov`, if it has an ANSUR column.
+    /// Per model measurement: its index in `joint`, if it has an ANSUR column.
     row: Vec<Option<usize>>,
-    /// Means, metres.
-    mean: Vec<f64>,
-    /// Covariance, metres^2.
-    cov: nalgebra::DMatrix<f64>,
+    /// Means (metres) and covariance (metres^2) of those columns.
+    joint: JointGaussian,
 }
 
 impl RealStats {
+    /// No measurement has real-people statistics (no ANSUR data, or too few
+    /// complete subjects): every reading is judged by the training population.
+    fn none(set: &MeasurementSet) -> RealStats {
+        RealStats {
+            row: vec![None; set.len()],
+            joint: JointGaussian {
+                n_measurements: 0,
+                n_weights: 0,
+                mean: Vec::new(),
+                cov: Vec::new(),
+            },
+        }
+    }
+
     fn compute(set: &MeasurementSet) -> RealStats {
         let Ok(ansur) = crate::ansur::Ansur::get() else {
-            return RealStats {
-                row: vec![None; set.len()],
-                ..RealStats::default()
-            };
+            return RealStats::none(set);
         };
         let mut row = vec![None; set.len()];
         let mut columns: Vec<&str> = Vec::new();
@@ -516,34 +530,44 @@ impl RealStats {
             .filter(|s| columns.iter().all(|c| s.dim(c).is_some_and(f64::is_finite)))
             .collect();
         if subjects.len() < columns.len() + 2 {
-            return RealStats {
-                row: vec![None; set.len()],
-                ..RealStats::default()
-            };
+            return RealStats::none(set);
         }
         let (mean, sd, corr) = crate::ansur::statistics(&subjects, &columns);
         let k = columns.len();
-        let cov = nalgebra::DMatrix::from_fn(k, k, |a, b| corr[a][b] * sd[a] * sd[b]);
-        RealStats { row, mean, cov }
+        let cov = (0..k * k)
+            .map(|i| {
+                let (a, b) = (i / k, i % k);
+                corr[a][b] * sd[a] * sd[b]
+            })
+            .collect();
+        RealStats {
+            row,
+            joint: JointGaussian {
+                n_measurements: k,
+                n_weights: 0,
+                mean,
+                cov,
+            },
+        }
     }
 
     /// Mean and SD (metres) of row `r`.
     fn marginal(&self, r: usize) -> (f64, f64) {
-        (self.mean[r], self.cov[(r, r)].max(0.0).sqrt())
+        let k = self.joint.n_measurements;
+        (
+            self.joint.mean[r],
+            self.joint.cov[r * k + r].max(0.0).sqrt(),
+        )
     }
 
-    /// Conditional mean and variance of row `a` given `observed` (row, value, noise variance).
+    /// Conditional mean and variance (metres, metres^2) of row `a` given
+    /// `observed` (row, value, noise variance), by
+    /// [`JointGaussian::conditional`]. `None` if even its ridge leaves the
+    /// observed covariance singular: the caller then judges by the training
+    /// population.
     fn conditional(&self, a: usize, observed: &[(usize, f64, f64)]) -> Option<(f64, f64)> {
-        let o = observed.len();
-        let s_oo = nalgebra::DMatrix::from_fn(o, o, |p, q| {
-            self.cov[(observed[p].0, observed[q].0)] + if p == q { observed[p].2 } else { 0.0 }
-        });
-        let s_ao = nalgebra::DVector::from_fn(o, |p, _| self.cov[(a, observed[p].0)]);
-        let resid = nalgebra::DVector::from_fn(o, |p, _| observed[p].1 - self.mean[observed[p].0]);
-        let chol = s_oo.cholesky()?;
-        let mean = self.mean[a] + s_ao.dot(&chol.solve(&resid));
-        let var = self.cov[(a, a)] - s_ao.dot(&chol.solve(&s_ao));
-        Some((mean, var.max(0.0)))
+        let c = self.joint.conditional(&[a], observed).ok()?;
+        Some((c.mean[0], c.cov[(0, 0)].max(0.0)))
     }
 }
 
