@@ -16,5 +16,6 @@ pub mod check;
 pub mod cli;
 pub mod estimate;
 pub mod link;
+pub mod services;
 pub mod store;
 pub mod tui;

@@ -7,10 +7,10 @@ mod tui_fixture;
 
 use std::time::{Duration, Instant};
 
+use tapeshape::services::{EstimateEvent, EstimateSummary};
 use tapeshape::store::SessionId;
 use tapeshape::tui::app::{App, Effect, Event, Screen, SessionView, Sex};
 use tapeshape::tui::operator::SimOperator;
-use tapeshape::tui::services::{EstimateEvent, EstimateSummary};
 use tapeshape::tui::update;
 use tui_fixture::*;
 

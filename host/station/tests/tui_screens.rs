@@ -10,10 +10,10 @@ use crossterm::event::KeyCode;
 use ratatui::backend::TestBackend;
 use ratatui::Terminal;
 use tapeshape::link::LinkEvent;
+use tapeshape::services::{EstimateEvent, EstimateSummary, ResultRow, Silhouettes, Stage};
 use tapeshape::store::{Session, SessionId, SessionStatus, SessionSummary};
 use tapeshape::tui::app::{App, Event, ResumeOffer};
 use tapeshape::tui::draw;
-use tapeshape::tui::services::{EstimateEvent, EstimateSummary, ResultRow, Silhouettes, Stage};
 use tapeshape_protocol::Fault;
 use tui_fixture::*;
 
@@ -108,7 +108,7 @@ fn unit_slip() {
         [Event::Checked {
             name: "waist".into(),
             value_tenth_mm: 3_300,
-            outcome: tapeshape::tui::services::CheckOutcome {
+            outcome: tapeshape::services::CheckOutcome {
                 unit_slip: Some(
                     "waist 33.0 cm fits 33.0 in (83.8 cm): check the tape's unit".into(),
                 ),

@@ -5,9 +5,9 @@
 mod tui_fixture;
 
 use crossterm::event::KeyCode;
+use tapeshape::services::{EstimateEvent, Stage};
 use tapeshape::store::{Mark, ReadingId, SessionId, SessionStatus};
 use tapeshape::tui::app::{Autopilot, DisplayUnit, Effect, Event, ItemState, Screen};
-use tapeshape::tui::services::{EstimateEvent, Stage};
 use tui_fixture::*;
 
 #[test]
@@ -399,7 +399,7 @@ fn export_marks_the_session_done_and_history_delete_asks_first() {
     send(
         &mut a,
         [Event::Estimate(EstimateEvent::Done(Box::new(
-            tapeshape::tui::services::EstimateSummary {
+            tapeshape::services::EstimateSummary {
                 session: SessionId(3),
                 rows: Vec::new(),
                 plausibility: "typical".into(),
@@ -413,7 +413,7 @@ fn export_marks_the_session_done_and_history_delete_asks_first() {
     let fx = send(&mut a, [ch('f'), ch('x')]);
     assert!(fx.contains(&Effect::Export {
         session: SessionId(3),
-        format: tapeshape::tui::services::ExportFormat::Obj
+        format: tapeshape::services::ExportFormat::Obj
     }));
     let fx = send(
         &mut a,
@@ -429,7 +429,7 @@ fn export_marks_the_session_done_and_history_delete_asks_first() {
     send(
         &mut a,
         [Event::Estimate(EstimateEvent::Done(Box::new(
-            tapeshape::tui::services::EstimateSummary {
+            tapeshape::services::EstimateSummary {
                 session: SessionId(3),
                 rows: Vec::new(),
                 plausibility: "typical".into(),
@@ -543,7 +543,7 @@ fn an_unanswered_flag_comes_back_after_a_restart() {
             marks: vec![("waist".into(), Mark::KeptFlagged)],
         })],
     );
-    let checks: Vec<&tapeshape::tui::services::CheckRequest> = fx
+    let checks: Vec<&tapeshape::services::CheckRequest> = fx
         .iter()
         .filter_map(|f| match f {
             Effect::Check(r) => Some(r),
@@ -567,7 +567,7 @@ fn an_unanswered_flag_comes_back_after_a_restart() {
         [Event::Checked {
             name: "chest".into(),
             value_tenth_mm: 5_800,
-            outcome: tapeshape::tui::services::CheckOutcome {
+            outcome: tapeshape::services::CheckOutcome {
                 flag: Some("chest 58.0 cm is 6 SD below the others' prediction".into()),
                 unit_slip: None,
                 note: None,

@@ -1,8 +1,8 @@
 //! The station's services over the embedded model: an operator's stated
 //! reading uncertainty reaches the reading check.
 
-use tapeshape::tui::services::{CheckRequest, Services as _};
-use tapeshape::tui::wiring::{reading_tolerance_m, StationServices};
+use tapeshape::services::station::{reading_tolerance_m, StationServices};
+use tapeshape::services::{CheckRequest, Services as _};
 
 fn chest_after_stature(chest_mm: f64) -> CheckRequest {
     CheckRequest {

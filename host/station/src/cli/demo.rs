@@ -166,7 +166,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     let detail = store.open_session(session.id)?;
     print!("{}", crate::cli::session::render(&detail));
     println!();
-    let tolerance = crate::tui::wiring::reading_tolerance_m(args.reading_tolerance)?;
+    let tolerance = crate::services::station::reading_tolerance_m(args.reading_tolerance)?;
     headless_estimate(
         &detail,
         args.export_dir.as_deref(),
@@ -183,8 +183,9 @@ fn headless_estimate(
     must_succeed: bool,
     reading_tolerance_m: Option<f64>,
 ) -> anyhow::Result<()> {
-    use crate::tui::services::{EstimateEvent, EstimateJob, Services as _};
-    let services = crate::tui::wiring::StationServices::with_reading_tolerance(reading_tolerance_m);
+    use crate::services::{EstimateEvent, EstimateJob, Services as _};
+    let services =
+        crate::services::station::StationServices::with_reading_tolerance(reading_tolerance_m);
     let job = EstimateJob {
         session: detail.session.id,
         readings: detail
@@ -237,7 +238,7 @@ fn headless_estimate(
         println!("warning: {w}");
     }
     if let Some(dir) = export {
-        use crate::tui::services::ExportFormat;
+        use crate::services::ExportFormat;
         let mut files = Vec::new();
         for f in [ExportFormat::Glb, ExportFormat::Obj, ExportFormat::Ply] {
             files.extend(
@@ -304,10 +305,11 @@ fn run_interactive(
         default_set: set.name.clone(),
         demo: Some((tape, operator)),
     };
-    let services =
-        std::sync::Arc::new(crate::tui::wiring::StationServices::with_reading_tolerance(
-            crate::tui::wiring::reading_tolerance_m(args.reading_tolerance)?,
-        ));
+    let services = std::sync::Arc::new(
+        crate::services::station::StationServices::with_reading_tolerance(
+            crate::services::station::reading_tolerance_m(args.reading_tolerance)?,
+        ),
+    );
     let global = match temp {
         Some(t) => Global {
             data_dir: Some(t.to_path_buf()),

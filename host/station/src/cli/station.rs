@@ -116,7 +116,7 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
             bail!("{what} belongs to the line mode (with --customer, --session or --resume)");
         }
     }
-    let tolerance = crate::tui::wiring::reading_tolerance_m(args.reading_tolerance)?;
+    let tolerance = crate::services::station::reading_tolerance_m(args.reading_tolerance)?;
     // --set preselects the set on the new customer form.
     let default_set = match &args.measurement_set {
         Some(set) => {
@@ -146,7 +146,7 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         demo: None,
     };
     let services = std::sync::Arc::new(
-        crate::tui::wiring::StationServices::with_reading_tolerance(tolerance),
+        crate::services::station::StationServices::with_reading_tolerance(tolerance),
     );
     crate::tui::runner::run_with_log(options, services, &runtime, global)
 }

@@ -20,10 +20,10 @@ use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use tapeshape_protocol::{DeviceHello, Live, UnitShown};
 
 use crate::link::LinkEvent;
-use crate::store::{Mark, ReadingId, SessionId, SessionStatus, SessionSummary};
-use crate::tui::services::{
+use crate::services::{
     CheckOutcome, CheckRequest, EstimateEvent, EstimateJob, EstimateSummary, ExportFormat, Stage,
 };
+use crate::store::{Mark, ReadingId, SessionId, SessionStatus, SessionSummary};
 
 /// Measurement sets offered for a new customer (besides a custom file).
 pub const BUILTIN_SET_CHOICES: [&str; 3] = ["quick", "ansur", "paper34"];

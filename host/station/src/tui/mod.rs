@@ -8,15 +8,13 @@
 //! [`app::Event`]s and performs the [`app::Effect`]s. The demo's simulated
 //! operator ([`operator`]) is one more event source, switched off by the
 //! first key a person presses. Checking and estimating sit behind
-//! [`services::Services`], so the interface thread never waits on the engine
+//! [`crate::services::Services`], so the interface thread never waits on the engine
 //! and tests run without one.
 
 pub mod app;
 pub mod operator;
 pub mod runner;
-pub mod services;
 pub mod ui;
-pub mod wiring;
 
 pub use app::{update, App, AppConfig, Effect, Event};
 pub use ui::draw;

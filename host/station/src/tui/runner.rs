@@ -19,12 +19,12 @@ use crossterm::event::{self as ct, KeyEventKind};
 use tokio::sync::mpsc;
 
 use crate::link::{Link, LinkConfig, LinkEvent, LinkHandle, Naming};
+use crate::services::{Cancel, SharedServices};
 use crate::store::{CommitOutcome, DeviceReading, SessionId, SessionStatus, Store, FIRST_SEQ};
 use crate::tui::app::{
     update, App, Autopilot, Effect, Event, MeasurementInfo, ResumeOffer, SessionView,
 };
 use crate::tui::operator::{SimOperator, SimTape};
-use crate::tui::services::{Cancel, SharedServices};
 
 /// Device id under which a value captured with Enter (the tape's live value,
 /// not held on the tape) is stored. Such readings do not come through the

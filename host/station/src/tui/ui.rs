@@ -17,10 +17,10 @@ use ratatui::widgets::{
 };
 use ratatui::Frame;
 
+use crate::services::Stage;
 use crate::tui::app::{
     App, Autopilot, Connection, FormField, ItemState, Level, Screen, BUILTIN_SET_CHOICES,
 };
-use crate::tui::services::Stage;
 
 /// Roles of text, mapped to colours or (monochrome) to modifiers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

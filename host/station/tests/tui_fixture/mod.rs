@@ -6,9 +6,9 @@
 
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use tapeshape::link::{LinkCounters, LinkEvent};
+use tapeshape::services::CheckOutcome;
 use tapeshape::store::{DeviceReading, ReadingId, SessionId, StoredReading};
 use tapeshape::tui::app::{App, AppConfig, Effect, Event, MeasurementInfo, SessionView};
-use tapeshape::tui::services::CheckOutcome;
 use tapeshape::tui::update;
 use tapeshape_protocol::{DeviceHello, Live, SoftwareVersion, UnitShown, PROTOCOL_VERSION};
 

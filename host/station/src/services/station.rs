@@ -16,11 +16,11 @@ use tapeshape_mesh::Vec3;
 
 use crate::check::{check_reading_with_tolerance, Flag};
 use crate::estimate;
-use crate::store::{Session, SessionId};
-use crate::tui::services::{
+use crate::services::{
     Cancel, CheckOutcome, CheckRequest, EstimateEvent, EstimateJob, EstimateSummary, ExportFormat,
     ProgressSink, ResultRow, Services, Silhouettes, Stage,
 };
+use crate::store::{Session, SessionId};
 
 /// The station's services: the embedded default model.
 #[derive(Default)]

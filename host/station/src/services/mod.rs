@@ -193,3 +193,5 @@ pub trait Services: Send + Sync {
 
 /// Shared handle to the services.
 pub type SharedServices = Arc<dyn Services>;
+
+pub mod station;
