@@ -3,18 +3,21 @@
 //!
 //! # Module map
 //!
-//! The station is built in layers; a module may import the modules of its
-//! own layer and those below it, never one above (`tests/layers.rs` checks
-//! every `crate::` path in `src/` against this table):
+//! The station is built in layers. In the order below, a module may import
+//! only the modules before it, never one after it (`tests/layers.rs` checks
+//! every `crate::` path in `src/` against this order; `check` and
+//! `estimate` share a place and do not import each other):
 //!
-//! | layer | modules | what | may import |
+//! | order | layer | module | what |
 //! |---|---|---|---|
-//! | 0 words | [`text`] | lengths, times, device faults, digests as the station writes them | nothing of the station |
-//! | 1 bottom | [`store`], [`link`] | the SQLite session store (the only writer of the file; its writes are crate-private); the serial link to the tape (frames, acks, reconnects) | `text` (the link also the store's types) |
-//! | 2 session | [`session`] | what a session is: creating, opening, resuming; readings from the tape (through the link's `ReadingSink`) or the keyboard; undo, skip, marks; the stored estimate. Every change is one transaction of `Sessions::change` | layers 0-1 |
-//! | 3 services | [`check`], [`estimate`], [`services`] | the work every front end asks for: checking a reading, estimating and exporting a body, showing a stored estimate | layers 0-2 |
-//! | 4 front ends | [`tui`] | the kiosk interface: `app` (router), one module per screen, the runner, the demo's simulated operator | layers 0-3 |
-//! | 5 commands | [`cli`] | the subcommands of the `tapeshape` binary (`src/main.rs` is a thin dispatcher over them): the line-mode station, the demo, sessions, measure, predict, ... | everything |
+//! | 0 | words | [`text`] | lengths, times, device faults, digests as the station writes them |
+//! | 1 | bottom | [`store`] | the SQLite session store: rows, migrations (`migrations/`), reads; its writes are crate-private steps of one transaction |
+//! | 2 | bottom | [`link`] | the serial link to the tape (frames, acks, reconnects); commits through its `ReadingSink` trait |
+//! | 3 | session | [`session`] | what a session is: start, open, resume; readings from the tape (it is the link's `ReadingSink`) or the keyboard; undo, skip, marks; the stored estimate. Every change is one transaction of `Sessions::change` |
+//! | 4 | services | [`check`], [`estimate`] | checking a captured reading; estimating on a thread and exporting a body |
+//! | 5 | services | [`services`] | the one boundary the front ends use (`Services`), and `StationServices` over the engine and the session layer |
+//! | 6 | front end | [`tui`] | the kiosk interface: `app` (router), one module per screen, the runner, the demo's simulated operator |
+//! | 7 | commands | [`cli`] | the subcommands of the `tapeshape` binary (`src/main.rs` dispatches): the line-mode station, the demo, sessions, measure, predict, ... |
 
 pub mod check;
 pub mod cli;

@@ -6,7 +6,7 @@
 //! a front end must not import another front end to share a format (that is
 //! how `tui -> cli` import circles start). It imports nothing of the station.
 
-use tapeshape_protocol::Fault;
+use tapeshape_protocol::{Fault, RejectReason};
 
 /// Formats milliseconds since the Unix epoch as an RFC 3339 UTC time to the
 /// second (`2026-11-22T05:30:00Z`).
@@ -41,7 +41,11 @@ pub fn describe_fault(f: &Fault) -> String {
         Fault::LineRejected {
             reason,
             rejected_total,
-        } => format!("line-rejected {reason:?} ({rejected_total} since boot)"),
+        } => format!(
+            "line-rejected: the tape sent {} ({rejected_total} since boot); \
+             if this repeats, check the tape's cable",
+            reject_words(reason)
+        ),
         Fault::VersionMismatch { host, device } => format!(
             "version-mismatch: the tape speaks protocol {}.{}, it was greeted with {}.{}",
             device.major, device.minor, host.major, host.minor
@@ -49,6 +53,23 @@ pub fn describe_fault(f: &Fault) -> String {
         Fault::HostFrameBad { total } => {
             format!("host-frame-bad: the tape dropped a frame from us ({total} since boot)")
         }
+    }
+}
+
+/// Why the firmware refused a tape line, in words.
+pub fn reject_words(reason: RejectReason) -> String {
+    match reason {
+        RejectReason::Garbage => "something that is not a tape line".to_string(),
+        RejectReason::Partial { len } => format!("a cut-off line ({len} of 19 characters)"),
+        RejectReason::Overlong => "a line longer than 19 characters".to_string(),
+        RejectReason::BadField { field } => {
+            format!("a line whose field {field} is not what a tape sends")
+        }
+        RejectReason::Negative => "a negative length".to_string(),
+        RejectReason::OutOfRange { value_tenth_mm } => format!(
+            "a length it cannot measure ({})",
+            format_tenth_mm(value_tenth_mm)
+        ),
     }
 }
 
@@ -90,5 +111,13 @@ mod tests {
             refused_total: 1,
         });
         assert!(t.contains("951.2 mm was NOT recorded"), "{t}");
+        let t = describe_fault(&Fault::LineRejected {
+            reason: RejectReason::Partial { len: 7 },
+            rejected_total: 3,
+        });
+        assert!(
+            t.contains("cut-off line (7 of 19") && t.contains("3 since boot"),
+            "{t}"
+        );
     }
 }

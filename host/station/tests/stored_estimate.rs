@@ -180,3 +180,52 @@ fn the_command_line_exports_a_stored_estimate_again() {
     }
     assert_eq!(meshes, 3);
 }
+
+/// The real program SIGKILLed the moment it has shown an estimate: the
+/// estimate was stored before it was shown, so the next program finds it.
+#[test]
+fn an_estimate_shown_before_a_sigkill_is_in_the_store() {
+    use std::io::BufRead as _;
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    let mut child = common::tapeshape(
+        &data,
+        &["demo", "--headless", "--seed", "7", "--speedup", "20"],
+    )
+    .spawn()
+    .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let mut shown = None;
+    for line in std::io::BufReader::new(stdout).lines() {
+        let line = line.unwrap();
+        if line.starts_with("estimate:") {
+            shown = Some(line);
+            break;
+        }
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    let shown = shown.expect("the demo showed no estimate");
+    let show = common::tapeshape(&data, &["session", "show", "1"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&show.stdout);
+    assert!(text.contains("estimate stored"), "{shown}\n{text}");
+    let dir = tmp.path().join("out");
+    let out = common::tapeshape(&data, &["session", "export", "1"])
+        .arg("--dir")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let glb = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .find(|e| e.file_name().to_string_lossy().ends_with(".glb"))
+        .expect("a GLB");
+    assert_eq!(&std::fs::read(glb.path()).unwrap()[..4], b"glTF");
+}
