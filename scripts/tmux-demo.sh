@@ -2,8 +2,11 @@
 # Drives the real `tapeshape demo` in a real terminal (tmux, 80x24) the way
 # an operator would: start the demo, take over from the simulated operator,
 # retake a reading, finish, estimate, export, quit, start again and find the
-# session in the history; then kill the program mid-session (SIGKILL) and
-# check that the next start offers to resume it with its readings. Each step waits for text on the screen
+# session in the history and show its stored estimate; then kill the program
+# mid-session (SIGKILL), check that the next start offers to resume it with its
+# readings, finish and estimate it, kill the program again and check that the
+# next start shows that estimate from the store (without estimating again) and
+# exports it. Each step waits for text on the screen
 # (capture-pane), fails with the screen shown if it does not appear, and
 # saves the screen to $OUT/NN-step.txt.
 #
@@ -125,6 +128,12 @@ save 08-history
 screen | grep -E '^\S*│1 +c-[0-9a-z]{6} +quick +done +9 ' >/dev/null \
     || screen | grep -E '1 +c-[0-9a-z]{6} +quick +done +9 ' >/dev/null \
     || fail "session 1 (done, 9 readings) is not in the history"
+echo "8b. show its stored estimate (nothing is estimated again)"
+wait_for "v result"
+keys v
+wait_for "Estimate stored"
+wait_for "Estimate ("
+save 08b-stored-result
 keys q
 keys q
 wait_dead
@@ -158,6 +167,41 @@ keys y
 wait_for "opened with its $offered stored readings"
 wait_for "$offered of 9 taken"
 save 11-resumed
+
+echo "12. finish the resumed session and estimate it, then kill the program (SIGKILL)"
+for _ in $(seq 1 20); do
+    if screen | grep -qF "Every measurement is taken"; then break; fi
+    if screen | grep -qF "Enter to keep"; then keys Enter; fi
+    keys m
+    sleep 1.5
+done
+wait_for "Every measurement is taken"
+keys e
+wait_for "Estimate ("
+save 12-estimated
+pane_pid=$(tmux display -p -t "$SESSION" '#{pane_pid}')
+if [[ "$(ps -o comm= -p "$pane_pid")" != tapeshape ]]; then pane_pid=$(pgrep -P "$pane_pid"); fi
+kill -9 "$pane_pid"
+wait_dead
+tmux kill-session -t "$SESSION"
+
+echo "13. start again: the estimate made before the kill is shown from the store and exported"
+start_demo
+wait_for "Resume?" 30
+keys Space
+wait_for "You have the keyboard"
+keys n
+wait_for "stays open"
+keys h
+wait_for "Sessions ("
+wait_for "v result"
+keys v
+wait_for "Estimate stored"
+wait_for "Estimate ("
+save 13-stored-after-kill
+keys x
+wait_for "exported"
+save 14-exported-again
 keys q
 keys q
 wait_dead

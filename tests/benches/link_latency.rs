@@ -16,7 +16,7 @@
 use std::time::Duration;
 
 use tapeshape::link::{Link, LinkEvent, Naming};
-use tapeshape::store::Store;
+use tapeshape::session::Sessions;
 use tapeshape_sim::tape::{Script, TapeTiming};
 use tapeshape_tests::{fast_link_config, spawn_tape, DeviceUnderTest};
 use tokio::time::Instant;
@@ -61,10 +61,10 @@ fn main() {
 async fn measure(n: usize) -> Vec<Duration> {
     let device = DeviceUnderTest::harness(0x0000_BE4C);
     let data = tempfile::tempdir().expect("temp dir");
-    let store = Store::open(data.path()).expect("store");
-    let session = store.create_session("bench", None).expect("session");
+    let sessions = Sessions::open(data.path()).expect("store");
+    let session = sessions.create("bench", None, None).expect("session");
     let (link, mut events, _task) =
-        Link::spawn(device.host_path(), fast_link_config(), store.clone());
+        Link::spawn(device.host_path(), fast_link_config(), sessions.clone());
     link.set_session(Some(session.id));
     link.set_naming(Naming::Numbered);
     // Wait for the handshake so that the first reading is not delayed by it.
@@ -102,7 +102,7 @@ async fn measure(n: usize) -> Vec<Duration> {
                     while let Ok(c) = confirms.try_recv() {
                         written.push(c.written_at);
                     }
-                    let i = reading.device.seq as usize;
+                    let i = reading.tape().expect("a tape reading").seq as usize;
                     let Some(&w) = written.get(i) else {
                         panic!("reading {i} committed before its hold was recorded");
                     };

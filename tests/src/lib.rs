@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use tapeshape::link::{Link, LinkConfig, LinkCounters, LinkEvent, Naming};
+use tapeshape::session::Sessions;
 use tapeshape::store::{SessionId, Store, StoredReading};
 use tapeshape_protocol::{Fault, Status};
 use tapeshape_sim::faults::FaultPlan;
@@ -266,10 +267,11 @@ pub async fn faulty_line_run(device: DeviceUnderTest, run: FaultyLineRun) {
     .expect("starting the proxy");
 
     let data = tempfile::tempdir().unwrap();
-    let store = Store::open(data.path()).unwrap();
-    let session = store.create_session("e2e-faults", None).unwrap();
+    let sessions = Sessions::open(data.path()).unwrap();
+    let store = sessions.store().clone();
+    let session = sessions.create("e2e-faults", None, None).unwrap();
     let (link, mut events, link_task) =
-        Link::spawn(proxy.host_port_path(), fast_link_config(), store.clone());
+        Link::spawn(proxy.host_port_path(), fast_link_config(), sessions.clone());
     link.set_session(Some(session.id));
     link.set_naming(Naming::Numbered);
 
@@ -391,21 +393,25 @@ pub fn check_session_exactly(
     }
     let origin = readings
         .first()
-        .map(|r| (r.device.device_id, r.device.boot_id));
+        .and_then(|r| r.tape())
+        .map(|t| (t.device_id, t.boot_id));
     for (i, (r, &want)) in readings.iter().zip(expected).enumerate() {
-        if Some((r.device.device_id, r.device.boot_id)) != origin {
+        let Some(tape) = r.tape() else {
+            return Err(format!("reading {i} did not come from the tape: {r:?}"));
+        };
+        if Some((tape.device_id, tape.boot_id)) != origin {
             return Err(format!("reading {i} from another device or boot: {r:?}"));
         }
-        if r.device.seq as usize != i {
+        if tape.seq as usize != i {
             return Err(format!(
                 "reading {i} has seq {} (lost, doubled or out of order)",
-                r.device.seq
+                tape.seq
             ));
         }
-        if r.device.value_tenth_mm != want {
+        if r.value_tenth_mm != want {
             return Err(format!(
                 "reading {i} (seq {}) holds {} tenths of a mm, the tape confirmed {want}",
-                r.device.seq, r.device.value_tenth_mm
+                tape.seq, r.value_tenth_mm
             ));
         }
     }

@@ -31,10 +31,11 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use tapeshape::cli::station::{plan, record, RecordOptions};
-use tapeshape::estimate::{export, start_estimate, MeshFormat, Reading, SessionInfo};
+use tapeshape::estimate::{export, start_estimate, tape_input, MeshFormat, SessionInfo};
+use tapeshape::session::Sessions;
 use tapeshape::store::Store;
 use tapeshape_engine::dataset::{generate_population, Dataset, PopulationSettings};
-use tapeshape_engine::predict::{Engine, PredictSettings};
+use tapeshape_engine::predict::{Engine, Inputs, PredictSettings};
 use tapeshape_mesh::Vec3;
 use tapeshape_sim::harness::{FirmwareHarness, HarnessConfig};
 use tapeshape_sim::pty::TtyStream;
@@ -144,13 +145,13 @@ fn mean_shape() -> Vec<Vec3> {
 /// `boot_id` must differ per session: the store refuses a (device, boot,
 /// seq) it has seen, as it must for a tape that did not reboot.
 fn session_through_the_station(
-    store: &Store,
+    sessions: &Sessions,
     boot_id: u32,
     customer: &str,
     values: &[(String, u32)],
 ) -> (tapeshape::store::SessionId, Vec<(String, u32)>) {
-    let session = store.create_session(customer, Some("quick")).unwrap();
-    let planned = plan(store, &session, &[]).unwrap();
+    let session = sessions.create(customer, Some("quick"), None).unwrap();
+    let planned = plan(sessions, &session, &[]).unwrap();
     assert_eq!(
         planned
             .as_ref()
@@ -190,7 +191,7 @@ fn session_through_the_station(
         };
         tokio::time::timeout(
             Duration::from_secs(40),
-            record(options, store.clone(), session.id, planned),
+            record(options, sessions.clone(), session.id, planned),
         )
         .await
         .expect("the session completes within 40 s")
@@ -198,12 +199,12 @@ fn session_through_the_station(
         player.abort();
         drop(harness);
     });
-    let detail = store.open_session(session.id).unwrap();
+    let detail = sessions.store().open_session(session.id).unwrap();
     // Every reading exactly once: no retakes, none superseded, none doubled.
     assert_eq!(detail.readings.len(), values.len(), "{:?}", detail.readings);
     let stored: Vec<(String, u32)> = detail
         .current_readings()
-        .map(|r| (r.measurement.clone(), r.device.value_tenth_mm))
+        .map(|r| (r.measurement.clone(), r.value_tenth_mm))
         .collect();
     (session.id, stored)
 }
@@ -215,10 +216,12 @@ fn estimate_export_and_compare(
     folder: &Path,
     truth: &[Vec3],
 ) -> f64 {
-    let readings: Vec<Reading> = stored
-        .iter()
-        .map(|(n, v)| Reading::new(n.clone(), *v as f64 / 10_000.0))
-        .collect();
+    let mut readings = Inputs::new();
+    for (n, v) in stored {
+        readings
+            .push(tape_input(n.clone(), *v as f64 / 10_000.0, None))
+            .unwrap();
+    }
     let job = start_estimate(engine(), &readings, &PredictSettings::default()).unwrap();
     let mut last = 0.0;
     while !job.is_finished() {
@@ -295,7 +298,8 @@ fn check_files(files: &[std::path::PathBuf], vertices: &[Vec3], stored: &[(Strin
 fn known_bodies_through_tape_firmware_link_store_estimate_and_export() {
     let data = held_out(E2E_BODIES);
     let dir = tempfile::tempdir().unwrap();
-    let store = Store::open(&dir.path().join("store")).unwrap();
+    let sessions = Sessions::open(&dir.path().join("store")).unwrap();
+    let store = sessions.store().clone();
     let mean = mean_shape();
     let (mut clean_sum, mut noisy_sum, mut mean_sum) = (0.0, 0.0, 0.0);
     for (i, truth) in data.bodies.iter().take(E2E_BODIES).enumerate() {
@@ -306,7 +310,7 @@ fn known_bodies_through_tape_firmware_link_store_estimate_and_export() {
         let sent = tape_values(&true_values, None);
         let customer = format!("e2e-{i}-clean");
         let boot = 100 + 2 * i as u32;
-        let (id, stored) = session_through_the_station(&store, boot, &customer, &sent);
+        let (id, stored) = session_through_the_station(&sessions, boot, &customer, &sent);
         assert_eq!(stored, sent, "every reading stored once, in order, as sent");
         let folder = dir.path().join(&customer);
         let clean = estimate_export_and_compare(&stored, (id.0, &customer), &folder, truth);
@@ -316,7 +320,7 @@ fn known_bodies_through_tape_firmware_link_store_estimate_and_export() {
         assert_ne!(sent, tape_values(&true_values, None));
         let customer = format!("e2e-{i}-novice");
         let boot = boot + 1;
-        let (id, stored) = session_through_the_station(&store, boot, &customer, &sent);
+        let (id, stored) = session_through_the_station(&sessions, boot, &customer, &sent);
         assert_eq!(stored, sent, "every noisy reading stored once, as sent");
         let folder = dir.path().join(&customer);
         let noisy = estimate_export_and_compare(&stored, (id.0, &customer), &folder, truth);
@@ -380,7 +384,7 @@ fn the_headless_demo_binary_stores_every_reading_and_exports_a_body_that_fits_th
     let stored: Vec<(String, u32)> = detail
         .readings
         .iter()
-        .map(|r| (r.measurement.clone(), r.device.value_tenth_mm))
+        .map(|r| (r.measurement.clone(), r.value_tenth_mm))
         .collect();
     assert_eq!(
         stored, customer.values,
@@ -455,14 +459,12 @@ fn measure_vertex_distances_on_held_out_bodies() {
                     .into_iter()
                     .enumerate()
             {
-                let readings: Vec<Reading> = tape_values(&vals, noise)
-                    .iter()
-                    .map(|(n, v)| Reading {
-                        name: n.clone(),
-                        metres: *v as f64 / 10_000.0,
-                        tolerance,
-                    })
-                    .collect();
+                let mut readings = Inputs::new();
+                for (n, v) in tape_values(&vals, noise) {
+                    readings
+                        .push(tape_input(n, v as f64 / 10_000.0, tolerance))
+                        .unwrap();
+                }
                 let est = start_estimate(engine(), &readings, &PredictSettings::default())
                     .unwrap()
                     .wait();

@@ -11,7 +11,7 @@
 use std::time::Duration;
 
 use tapeshape::link::{Link, LinkEvent, Naming};
-use tapeshape::store::Store;
+use tapeshape::session::Sessions;
 use tapeshape_firmware::tape::{Line, LineAssembler};
 use tapeshape_protocol::Fault;
 use tapeshape_sim::faults::{FaultInjector, FaultPlan, Segment};
@@ -73,10 +73,11 @@ fn corrupt(line: &[u8], k: usize) -> Vec<u8> {
 async fn garbage_and_corrupted_tape_lines_are_rejected_counted_never_stored() {
     let device = DeviceUnderTest::harness(0x0000_6A7B);
     let data = tempfile::tempdir().unwrap();
-    let store = Store::open(data.path()).unwrap();
-    let session = store.create_session("e2e-tape-faults", None).unwrap();
+    let sessions = Sessions::open(data.path()).unwrap();
+    let store = sessions.store().clone();
+    let session = sessions.create("e2e-tape-faults", None, None).unwrap();
     let (link, mut events, link_task) =
-        Link::spawn(device.host_path(), fast_link_config(), store.clone());
+        Link::spawn(device.host_path(), fast_link_config(), sessions.clone());
     link.set_session(Some(session.id));
     link.set_naming(Naming::Numbered);
 

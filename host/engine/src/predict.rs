@@ -680,6 +680,22 @@ impl Engine {
     }
 
     fn unknown(&self, name: &str) -> PredictError {
+        // A group total (`tapeshape measure` prints e.g. the knee loop's sum
+        // as `knee_circumference_left`) is derived, not a measurement.
+        if let Some((_, members)) = self.set.groups().into_iter().find(|(g, _)| g == name) {
+            let names: Vec<&str> = members
+                .iter()
+                .map(|&i| self.set.definitions[i].name.as_str())
+                .collect();
+            return PredictError::UnknownMeasurement {
+                name: name.to_string(),
+                suggestion: format!(
+                    ": it is a derived total (the sum of {} measurements); give those instead: {}",
+                    names.len(),
+                    names.join(", ")
+                ),
+            };
+        }
         let mut scored: Vec<(f64, &str)> = self
             .set
             .definitions

@@ -11,14 +11,16 @@
 #![allow(missing_docs)]
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use tapeshape::store::{CommitOutcome, DeviceReading, Store};
+use tapeshape::link::ReadingSink as _;
+use tapeshape::session::Sessions;
+use tapeshape::store::{CommitOutcome, DeviceReading};
 
 fn commit(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap();
-    let store = Store::open(dir.path()).unwrap();
-    let session = store.create_session("bench", None).unwrap().id;
+    let sessions = Sessions::open(dir.path()).unwrap();
+    let session = sessions.create("bench", None, None).unwrap().id;
     let mut seq = 0u32;
-    c.bench_function("commit_reading (new, fsync)", |b| {
+    c.bench_function("commit_tape_reading (new, fsync)", |b| {
         b.iter(|| {
             let r = DeviceReading {
                 device_id: 1,
@@ -28,7 +30,9 @@ fn commit(c: &mut Criterion) {
                 device_time_ms: u64::from(seq),
             };
             seq += 1;
-            let out = store.commit_reading(session, "chest", &r).unwrap();
+            let out = sessions
+                .commit_tape_reading(session, Some("chest"), &r)
+                .unwrap();
             assert!(matches!(out, CommitOutcome::Committed(_)));
         })
     });
@@ -39,9 +43,11 @@ fn commit(c: &mut Criterion) {
         value_tenth_mm: 9000,
         device_time_ms: 0,
     };
-    c.bench_function("commit_reading (duplicate)", |b| {
+    c.bench_function("commit_tape_reading (duplicate)", |b| {
         b.iter(|| {
-            let out = store.commit_reading(session, "chest", &dup).unwrap();
+            let out = sessions
+                .commit_tape_reading(session, Some("chest"), &dup)
+                .unwrap();
             assert!(matches!(out, CommitOutcome::Duplicate { .. }));
         })
     });

@@ -14,7 +14,14 @@
 //! by `tapeshape_mesh::io`), plus a JSON report of the session (customer,
 //! session, set, each reading's target / achieved / error in mm, the
 //! capture-time check, plausibility, warnings, model, timings, and the units
-//! and frames stated), each written to a temporary name and renamed.
+//! and frames stated), each written to a temporary name and renamed. The
+//! report is also what the station stores with the estimate
+//! ([`ExportReport`] reads back from its JSON), so a body estimated before a
+//! restart is exported again after it without estimating again
+//! ([`export_report`]).
+//!
+//! Layer: a service (with `crate::check`), over the engine; it knows nothing
+//! of sessions, screens or the store.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -23,32 +30,29 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use tapeshape_engine::predict::{
-    Control, Engine, Estimate, EstimateReport, Input, Inputs, Length, ModelSummary, PredictError,
-    PredictProgress, PredictSettings, PredictStage, Unit,
+    Control, Engine, Estimate, Input, Inputs, Length, PredictError, PredictProgress,
+    PredictSettings, PredictStage, Unit,
 };
-use tapeshape_mesh::io::{write_atomic, write_glb, write_obj, write_ply, PlyPrecision};
+use tapeshape_mesh::io::{
+    write_atomic, write_glb, write_obj, write_ply, MeshIoError, PlyPrecision,
+};
+use tapeshape_mesh::Mesh;
 
-/// One reading to estimate from.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Reading {
-    /// Measurement name (as in the model's sets).
-    pub name: String,
-    /// Value, metres.
-    pub metres: f64,
-    /// Standard uncertainty, metres (`None`: the measurement's own class).
-    pub tolerance: Option<f64>,
-}
-
-impl Reading {
-    /// A reading without a stated tolerance.
-    pub fn new(name: impl Into<String>, metres: f64) -> Self {
-        Self {
-            name: name.into(),
+/// A tape reading as the engine takes it: `metres` as the tape shows it
+/// (centimetres, so that a unit slip is explained in the tape's unit), with
+/// its standard uncertainty in metres (`None`: the measurement's ISO class).
+pub fn tape_input(name: impl Into<String>, metres: f64, tolerance: Option<f64>) -> Input {
+    Input {
+        name: name.into(),
+        value: Length {
             metres,
-            tolerance: None,
-        }
+            unit: Unit::Cm,
+            unit_typed: true,
+            number: metres * 100.0,
+        },
+        tolerance,
     }
 }
 
@@ -113,25 +117,26 @@ pub struct EstimateJob {
 /// is always reported), so the channel carries a few hundred at most.
 const MIN_STEP: f64 = 0.005;
 
-/// Starts estimating a body from `readings` on a new thread with the
+/// Starts estimating a body from `inputs` on a new thread with the
 /// paper's `settings`. `engine` is any shared handle to an engine
 /// (`Engine::default_model()` gives a `&'static Engine`; an `Arc<Engine>`
 /// works too).
 ///
 /// The readings are checked before the thread starts (so a typo fails at
-/// once): a name given twice, or a value or tolerance that is not a positive
-/// finite length, is an error; the engine's own checks (unknown names, unit
-/// slips, contradictions) run on the thread and end the job with
-/// [`EstimateError::Predict`].
+/// once): a value or tolerance that is not a positive finite length is an
+/// error ([`Inputs`] already refuses a name given twice); the engine's own
+/// checks (unknown names, unit slips, contradictions) run on the thread and
+/// end the job with [`EstimateError::Predict`].
 pub fn start_estimate<E>(
     engine: E,
-    readings: &[Reading],
+    inputs: &Inputs,
     settings: &PredictSettings,
 ) -> Result<EstimateJob, EstimateError>
 where
     E: std::ops::Deref<Target = Engine> + Send + 'static,
 {
-    let inputs = to_inputs(readings)?;
+    check_inputs(inputs)?;
+    let inputs = inputs.clone();
     let settings = settings.clone();
     let (tx, rx) = mpsc::channel();
     let cancel = CancelHandle::default();
@@ -171,13 +176,13 @@ where
     })
 }
 
-fn to_inputs(readings: &[Reading]) -> Result<Inputs, EstimateError> {
-    let mut inputs = Inputs::new();
-    for r in readings {
-        if !(r.metres.is_finite() && r.metres > 0.0) {
+fn check_inputs(inputs: &Inputs) -> Result<(), EstimateError> {
+    for r in &inputs.readings {
+        let metres = r.value.metres;
+        if !(metres.is_finite() && metres > 0.0) {
             return Err(PredictError::BadValue(format!(
-                "{} is {} m: a length must be positive and finite; measure it again",
-                r.name, r.metres
+                "{} is {metres} m: a length must be positive and finite; measure it again",
+                r.name
             ))
             .into());
         }
@@ -190,18 +195,8 @@ fn to_inputs(readings: &[Reading]) -> Result<Inputs, EstimateError> {
                 .into());
             }
         }
-        inputs.push(Input {
-            name: r.name.clone(),
-            value: Length {
-                metres: r.metres,
-                unit: Unit::Cm,
-                unit_typed: true,
-                number: r.metres * 100.0,
-            },
-            tolerance: r.tolerance,
-        })?;
     }
-    Ok(inputs)
+    Ok(())
 }
 
 impl EstimateJob {
@@ -267,7 +262,18 @@ impl Drop for EstimateJob {
     }
 }
 
-/// A mesh format [`export`] writes.
+/// A mesh file name ends in neither `.obj`, `.ply` nor `.glb`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{path}: unknown mesh format '{ext}': name the output .obj, .ply or .glb", path = .path.display())]
+pub struct UnknownMeshFormat {
+    /// The file name given.
+    pub path: PathBuf,
+    /// Its extension.
+    pub ext: String,
+}
+
+/// A mesh file format the station writes (the one name for it: exports,
+/// `tapeshape predict -o`, the result screen's format choice).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 pub enum MeshFormat {
     /// Wavefront OBJ (station frame, metres).
@@ -290,10 +296,36 @@ impl MeshFormat {
             MeshFormat::Glb => "glb",
         }
     }
+
+    /// The format a file name asks for, by its extension (any case).
+    pub fn from_path(path: &Path) -> Result<MeshFormat, UnknownMeshFormat> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .unwrap_or_default();
+        MeshFormat::ALL
+            .into_iter()
+            .find(|f| f.ext() == ext)
+            .ok_or_else(|| UnknownMeshFormat {
+                path: path.to_path_buf(),
+                ext,
+            })
+    }
+
+    /// Writes `mesh` to `path` in this format (atomically: a temporary
+    /// name, then renamed). PLY keeps f64 coordinates.
+    pub fn write(self, mesh: &Mesh, path: &Path) -> Result<(), MeshIoError> {
+        match self {
+            MeshFormat::Obj => write_obj(mesh, path),
+            MeshFormat::Ply => write_ply(mesh, path, PlyPrecision::F64),
+            MeshFormat::Glb => write_glb(mesh, path),
+        }
+    }
 }
 
 /// Who and what an export is for (goes into the report and file names).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SessionInfo {
     /// Opaque customer id.
     pub customer_id: String,
@@ -309,7 +341,7 @@ pub struct SessionInfo {
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
     /// The folder could not be created.
-    #[error("cannot create the export folder {path}: {source}; choose another folder")]
+    #[error("cannot create the export folder {}: {source}; choose another folder", .path.display())]
     Folder {
         /// The folder.
         path: PathBuf,
@@ -318,17 +350,27 @@ pub enum ExportError {
         source: std::io::Error,
     },
     /// Writing a mesh or the report failed.
-    #[error("writing {path}: {message}")]
+    #[error("writing {}: {source}", .path.display())]
     Write {
         /// The file.
         path: PathBuf,
         /// What went wrong.
-        message: String,
+        #[source]
+        source: MeshIoError,
+    },
+    /// The report could not be encoded as JSON.
+    #[error("encoding the report {}: {source}", .path.display())]
+    Encode {
+        /// The report file.
+        path: PathBuf,
+        /// What went wrong.
+        #[source]
+        source: serde_json::Error,
     },
 }
 
 /// One given measurement in the report (millimetres).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ReportMeasurement {
     /// Measurement name.
     pub name: String,
@@ -349,7 +391,7 @@ pub struct ReportMeasurement {
 }
 
 /// The plausibility part of the report.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ReportPlausibility {
     /// "Typical", "Unusual" or "Implausible" for the readings.
     pub readings: String,
@@ -366,7 +408,7 @@ pub struct ReportPlausibility {
 }
 
 /// Stage timings, milliseconds.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ReportTimings {
     /// Input checks.
     pub check_ms: f64,
@@ -380,17 +422,20 @@ pub struct ReportTimings {
     pub total_ms: f64,
 }
 
-/// The JSON report [`export`] writes.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// The JSON report [`export`] writes, and the station stores with the
+/// estimate (then with no files and `exported_at_ms` 0). The parts the
+/// engine owns (`model`, `engine`) are kept as JSON values, so that a report
+/// stored by one version of the program reads back in another.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ExportReport {
     /// Always "tapeshape estimate report".
-    pub format: &'static str,
+    pub format: String,
     /// Report format version (1).
     pub version: u32,
     /// Units of every number and file.
-    pub units: &'static str,
+    pub units: String,
     /// Coordinate frames of the mesh files.
-    pub frames: &'static str,
+    pub frames: String,
     /// The session.
     pub session: SessionInfo,
     /// Each reading given, in the model's order.
@@ -401,16 +446,34 @@ pub struct ExportReport {
     pub plausibility: ReportPlausibility,
     /// Everything the operator or an engineer should know.
     pub warnings: Vec<String>,
-    /// The model used.
-    pub model: ModelSummary,
+    /// The model used (the engine's `ModelSummary`).
+    pub model: serde_json::Value,
     /// Stage timings.
     pub timings: ReportTimings,
     /// Mesh vertices and triangles.
     pub mesh: (usize, usize),
     /// The files written with this report (names, same folder).
     pub files: Vec<String>,
-    /// The engine's full report (stage values, L-BFGS runs, settings).
-    pub engine: EstimateReport,
+    /// The engine's full report (stage values, L-BFGS runs, settings: its
+    /// `EstimateReport`).
+    pub engine: serde_json::Value,
+}
+
+/// A plausibility label of the engine's report by its serialised name
+/// (`Typical`, `Unusual`, `Implausible`: the engine's stable word for it),
+/// as the report and the interface write it.
+fn label_word(label: &impl Serialize) -> String {
+    match serde_json::to_value(label) {
+        Ok(serde_json::Value::String(s)) => s,
+        _ => "unknown".to_string(),
+    }
+}
+
+/// Plain data as a JSON value. Serialising the engine's report types cannot
+/// fail (no maps with non-string keys, no failing `Serialize`); if it ever
+/// did, the report would hold `null` for that part, never lose the station's.
+fn json_value(v: &impl Serialize) -> serde_json::Value {
+    serde_json::to_value(v).unwrap_or(serde_json::Value::Null)
 }
 
 /// Builds the report of `estimate` for `session` (listing `files`).
@@ -445,23 +508,23 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
     let pl = &p.plausibility;
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     ExportReport {
-        format: "tapeshape estimate report",
+        format: "tapeshape estimate report".into(),
         version: 1,
-        units: "lengths in the report in millimetres (mm); mesh coordinates in metres; times in milliseconds",
-        frames: "OBJ and PLY: station frame, Z up, +Y = the body's front, +X = the body's right, feet at z = 0; GLB: glTF frame, +Y up, +Z = the body's front, converted by (x, y, z) -> (-x, z, y)",
+        units: "lengths in the report in millimetres (mm); mesh coordinates in metres; times in milliseconds".into(),
+        frames: "OBJ and PLY: station frame, Z up, +Y = the body's front, +X = the body's right, feet at z = 0; GLB: glTF frame, +Y up, +Z = the body's front, converted by (x, y, z) -> (-x, z, y)".into(),
         session: session.clone(),
         measurements,
         measured_not_given,
         plausibility: ReportPlausibility {
-            readings: format!("{:?}", pl.measurements_label),
+            readings: label_word(&pl.measurements_label),
             readings_mahalanobis: pl.measurements_mahalanobis,
             readings_quantile: pl.measurements_quantile,
-            shape: format!("{:?}", pl.label),
+            shape: label_word(&pl.label),
             shape_mahalanobis: pl.mahalanobis,
             out_of_space_rms_mm: pl.out_of_space_rms_mm,
         },
         warnings: r.warnings.clone(),
-        model: r.model.clone(),
+        model: json_value(&r.model),
         timings: ReportTimings {
             check_ms: ms(r.check_time),
             start_ms: ms(p.timings.start),
@@ -474,7 +537,7 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
             estimate.mesh.faces().len(),
         ),
         files,
-        engine: r.clone(),
+        engine: json_value(r),
     }
 }
 
@@ -513,42 +576,52 @@ pub fn export(
     folder: &Path,
     formats: &[MeshFormat],
 ) -> Result<Vec<PathBuf>, ExportError> {
+    export_report(
+        &estimate.mesh,
+        report(estimate, session, Vec::new()),
+        folder,
+        formats,
+    )
+}
+
+/// Writes `mesh` and `report` (with its `files` replaced by the files
+/// written) as [`export`] does: the export of an estimate kept in the store.
+/// The files are named after `report.session` ([`file_stem`]).
+pub fn export_report(
+    mesh: &Mesh,
+    mut report: ExportReport,
+    folder: &Path,
+    formats: &[MeshFormat],
+) -> Result<Vec<PathBuf>, ExportError> {
     std::fs::create_dir_all(folder).map_err(|source| ExportError::Folder {
         path: folder.to_path_buf(),
         source,
     })?;
-    let stem = file_stem(session);
+    let stem = file_stem(&report.session);
     let mut written = Vec::new();
     for (i, &f) in formats.iter().enumerate() {
         if formats[..i].contains(&f) {
             continue; // asked twice: written once
         }
         let path = folder.join(format!("{stem}.{}", f.ext()));
-        let r = match f {
-            MeshFormat::Obj => write_obj(&estimate.mesh, &path),
-            MeshFormat::Ply => write_ply(&estimate.mesh, &path, PlyPrecision::F64),
-            MeshFormat::Glb => write_glb(&estimate.mesh, &path),
-        };
-        r.map_err(|e| ExportError::Write {
+        f.write(mesh, &path).map_err(|source| ExportError::Write {
             path: path.clone(),
-            message: e.to_string(),
+            source,
         })?;
         written.push(path);
     }
     let report_path = folder.join(format!("{stem}-report.json"));
-    let names = written
+    report.files = written
         .iter()
         .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
         .collect();
-    let json = serde_json::to_vec_pretty(&report(estimate, session, names)).map_err(|e| {
-        ExportError::Write {
-            path: report_path.clone(),
-            message: e.to_string(),
-        }
-    })?;
-    write_atomic(&report_path, &json).map_err(|e| ExportError::Write {
+    let json = serde_json::to_vec_pretty(&report).map_err(|source| ExportError::Encode {
         path: report_path.clone(),
-        message: e.to_string(),
+        source,
+    })?;
+    write_atomic(&report_path, &json).map_err(|source| ExportError::Write {
+        path: report_path.clone(),
+        source,
     })?;
     written.push(report_path);
     Ok(written)
@@ -563,13 +636,19 @@ mod tests {
         Engine::default_model().expect("embedded model")
     }
 
-    fn readings() -> Vec<Reading> {
-        vec![
-            Reading::new("stature", 1.76),
-            Reading::new("chest", 0.98),
-            Reading::new("waist", 0.84),
-            Reading::new("hip", 1.00),
-        ]
+    const READINGS: [(&str, f64); 4] = [
+        ("stature", 1.76),
+        ("chest", 0.98),
+        ("waist", 0.84),
+        ("hip", 1.00),
+    ];
+
+    fn readings() -> Inputs {
+        let mut inputs = Inputs::new();
+        for (name, m) in READINGS {
+            inputs.push(tape_input(name, m, None)).unwrap();
+        }
+        inputs
     }
 
     #[test]
@@ -593,8 +672,7 @@ mod tests {
             .iter()
             .any(|p| matches!(p.stage, PredictStage::Step2 { .. })));
         // The same body as a direct prediction (the job adds nothing).
-        let inputs = to_inputs(&readings()).unwrap();
-        let direct = e.predict(&inputs, &settings).unwrap();
+        let direct = e.predict(&readings(), &settings).unwrap();
         assert_eq!(direct.mesh.vertices, est.mesh.vertices);
     }
 
@@ -628,17 +706,22 @@ mod tests {
         let e = engine();
         let s = PredictSettings::default();
         let mut twice = readings();
-        twice.push(Reading::new("chest", 0.99));
-        let err = start_estimate(e, &twice, &s).unwrap_err();
+        let err = twice.push(tape_input("chest", 0.99, None)).unwrap_err();
         assert!(err.to_string().contains("given twice"), "{err}");
         let mut neg = readings();
-        neg[1].metres = -0.98;
+        neg.readings[1].value.metres = -0.98;
         assert!(matches!(
             start_estimate(e, &neg, &s),
             Err(EstimateError::Predict(PredictError::BadValue(_)))
         ));
+        let mut tol = readings();
+        tol.readings[1].tolerance = Some(f64::NAN);
+        assert!(matches!(
+            start_estimate(e, &tol, &s),
+            Err(EstimateError::Predict(PredictError::BadValue(_)))
+        ));
         let mut typo = readings();
-        typo[1].name = "chets".into();
+        typo.readings[1].name = "chets".into();
         let err = start_estimate(e, &typo, &s).unwrap().wait().unwrap_err();
         assert!(err.to_string().contains("did you mean chest"), "{err}");
     }
@@ -646,8 +729,7 @@ mod tests {
     #[test]
     fn export_writes_every_format_and_a_report_that_reads_back() {
         let e = engine();
-        let inputs = to_inputs(&readings()).unwrap();
-        let est = e.predict(&inputs, &PredictSettings::default()).unwrap();
+        let est = e.predict(&readings(), &PredictSettings::default()).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let folder = dir.path().join("out/nested");
         let session = SessionInfo {
@@ -696,9 +778,9 @@ mod tests {
         assert_eq!(ms.len(), 4);
         for m in ms {
             let name = m["name"].as_str().unwrap();
-            let given = readings().into_iter().find(|r| r.name == name).unwrap();
+            let given = READINGS.iter().find(|r| r.0 == name).unwrap();
             let target = m["target_mm"].as_f64().unwrap();
-            assert!((target - given.metres * 1000.0).abs() < 1e-9);
+            assert!((target - given.1 * 1000.0).abs() < 1e-9);
             let achieved = m["achieved_mm"].as_f64().unwrap();
             let err = m["error_mm"].as_f64().unwrap();
             assert!((achieved - target - err).abs() < 1e-9);
@@ -726,8 +808,7 @@ mod tests {
     #[test]
     fn an_unwritable_folder_is_a_clear_error() {
         let e = engine();
-        let inputs = to_inputs(&readings()).unwrap();
-        let est = e.predict(&inputs, &PredictSettings::default()).unwrap();
+        let est = e.predict(&readings(), &PredictSettings::default()).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("a-file");
         std::fs::write(&file, b"x").unwrap();

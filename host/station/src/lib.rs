@@ -1,20 +1,30 @@
-//! The tapeshape station program: tape link, session store, terminal interface and CLI.
+//! The tapeshape station program: tape link, session store, session layer,
+//! services, the kiosk terminal interface and the command line.
 //!
-//! * [`store`]: the SQLite session store (sessions, readings, per-device
-//!   sequence bookkeeping); durable before anything is acknowledged.
-//! * [`link`]: the serial link to the tape firmware (handshake, acknowledgement
-//!   after commit, reconnection).
-//! * [`check`]: each captured reading against what the readings already
-//!   taken predict (conditional z-score, unit slips).
-//! * [`estimate`]: estimating a body on its own thread (progress, cancel)
-//!   and exporting it (OBJ, PLY, GLB and a JSON report).
-//! * [`tui`]: the kiosk terminal interface (screens, operator flow).
-//! * [`cli`]: the subcommands of the `tapeshape` binary (src/main.rs is a
-//!   thin dispatcher over them).
+//! # Module map
+//!
+//! The station is built in layers. In the order below, a module may import
+//! only the modules before it, never one after it (`tests/layers.rs` checks
+//! every `crate::` path in `src/` against this order; `check` and
+//! `estimate` share a place and do not import each other):
+//!
+//! | order | layer | module | what |
+//! |---|---|---|---|
+//! | 0 | words | [`text`] | lengths, times, device faults, digests as the station writes them |
+//! | 1 | bottom | [`store`] | the SQLite session store: rows, migrations (`migrations/`), reads; its writes are crate-private steps of one transaction |
+//! | 2 | bottom | [`link`] | the serial link to the tape (frames, acks, reconnects); commits through its `ReadingSink` trait |
+//! | 3 | session | [`session`] | what a session is: start, open, resume; readings from the tape (it is the link's `ReadingSink`) or the keyboard; undo, skip, marks; the stored estimate. Every change is one transaction of `Sessions::change` |
+//! | 4 | services | [`check`], [`estimate`] | checking a captured reading; estimating on a thread and exporting a body |
+//! | 5 | services | [`services`] | the one boundary the front ends use (`Services`), and `StationServices` over the engine and the session layer |
+//! | 6 | front end | [`tui`] | the kiosk interface: `app` (router), one module per screen, the runner, the demo's simulated operator |
+//! | 7 | commands | [`cli`] | the subcommands of the `tapeshape` binary (`src/main.rs` dispatches): the line-mode station, the demo, sessions, measure, predict, ... |
 
 pub mod check;
 pub mod cli;
 pub mod estimate;
 pub mod link;
+pub mod services;
+pub mod session;
 pub mod store;
+pub mod text;
 pub mod tui;

@@ -43,7 +43,15 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let args = Cli::parse();
+    let args = match Cli::try_parse() {
+        Ok(a) => a,
+        Err(e) => {
+            // Help, version or a usage error; printing it to a closed pipe
+            // (`tapeshape --help | head`) is not an error of ours.
+            let _ = e.print();
+            return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
+        }
+    };
     cli::init_logging(args.global.verbose);
     let result = match args.command {
         Command::Station(a) => cli::station::run(a, &args.global),
@@ -58,6 +66,9 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of our output went away (`| head`): it has what it
+        // wanted; end quietly, as grep and ripgrep do.
+        Err(e) if cli::is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             // `{:#}`: the error with its context chain on one line, no backtrace.
             eprintln!("error: {e:#}");

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use tapeshape::link::{Link, LinkConfig, LinkEvent, LinkHandle, Naming, Unassigned};
+use tapeshape::session::Sessions;
 use tapeshape::store::{SessionId, Store};
 use tapeshape_protocol::{
     encode, DeviceHello, DeviceMsg, FrameDecoder, HostMsg, ProtocolVersion, Reading,
@@ -154,6 +155,7 @@ struct Rig {
     _data: tempfile::TempDir,
     data_dir: PathBuf,
     store: Store,
+    sessions: Sessions,
     session: SessionId,
     link: LinkHandle,
     events: mpsc::Receiver<LinkEvent>,
@@ -162,13 +164,15 @@ struct Rig {
 fn rig(port: &Path) -> Rig {
     let data = tempfile::tempdir().unwrap();
     let data_dir = data.path().to_path_buf();
-    let store = Store::open(&data_dir).unwrap();
-    let session = store.create_session("cust-1", None).unwrap().id;
-    let (link, events, _task) = Link::spawn(port, config(), store.clone());
+    let sessions = Sessions::open(&data_dir).unwrap();
+    let store = sessions.store().clone();
+    let session = sessions.create("cust-1", None, None).unwrap().id;
+    let (link, events, _task) = Link::spawn(port, config(), sessions.clone());
     Rig {
         _data: data,
         data_dir,
         store,
+        sessions,
         session,
         link,
         events,
@@ -199,7 +203,8 @@ fn values(store: &Store, session: SessionId) -> Vec<(String, u32, u32)> {
         .unwrap()
         .readings
         .into_iter()
-        .map(|r| (r.measurement, r.device.seq, r.device.value_tenth_mm))
+        .map(|r| (r.tape().unwrap().seq, r.value_tenth_mm, r.measurement))
+        .map(|(seq, v, name)| (name, seq, v))
         .collect()
 }
 
@@ -238,7 +243,7 @@ async fn handshake_then_commit_then_ack() {
         unreachable!()
     };
     assert_eq!(reading.measurement, "chest");
-    assert_eq!(reading.device.device_id, DEVICE_ID);
+    assert_eq!(reading.tape().unwrap().device_id, DEVICE_ID);
     dev.reading(7, 1, 8120).await;
     assert_eq!(dev.ack().await, (7, 1));
     assert_eq!(
@@ -505,7 +510,10 @@ async fn waits_for_a_port_that_does_not_exist_yet() {
     let LinkEvent::WaitingForPort { error } = ev else {
         unreachable!()
     };
-    assert!(error.contains(&port.path.display().to_string()), "{error}");
+    assert!(
+        error.to_string().contains(&port.path.display().to_string()),
+        "{error}"
+    );
     let mut dev = port.plug();
     dev.handshake(1, PROTOCOL_VERSION).await;
     wait_for(&mut rig.events, "connected", |e| {
@@ -556,13 +564,13 @@ async fn a_silent_device_is_pinged_then_dropped_and_reopened() {
     let port = Port::new();
     let mut dev = port.plug();
     let data = tempfile::tempdir().unwrap();
-    let store = Store::open(data.path()).unwrap();
+    let sessions = Sessions::open(data.path()).unwrap();
     let config = LinkConfig {
         reconnect_poll: Duration::from_millis(50),
         silence_timeout: Duration::from_millis(300),
         ..LinkConfig::default()
     };
-    let (_link, mut events, _task) = Link::spawn(&port.path, config, store);
+    let (_link, mut events, _task) = Link::spawn(&port.path, config, sessions);
     dev.handshake(1, PROTOCOL_VERSION).await;
     // The device goes quiet: the link pings it...
     let deadline = tokio::time::Instant::now() + WAIT;
@@ -581,7 +589,7 @@ async fn a_silent_device_is_pinged_then_dropped_and_reopened() {
     let LinkEvent::Disconnected { reason, .. } = ev else {
         unreachable!()
     };
-    assert!(reason.contains("no data"), "{reason}");
+    assert!(reason.to_string().contains("no data"), "{reason}");
     wait_for(&mut events, "reopened", |e| {
         matches!(e, LinkEvent::PortOpened { .. })
     })
@@ -621,7 +629,7 @@ async fn a_closed_session_refuses_readings_until_reopened() {
     rig.link.set_naming(Naming::Numbered);
     dev.handshake(4, PROTOCOL_VERSION).await;
     // Another process closes the session while the station runs.
-    rig.store
+    rig.sessions
         .set_status(rig.session, tapeshape::store::SessionStatus::Done)
         .unwrap();
     for _ in 0..3 {
@@ -634,13 +642,13 @@ async fn a_closed_session_refuses_readings_until_reopened() {
     let LinkEvent::CommitFailed { error, .. } = ev else {
         unreachable!()
     };
-    assert!(error.contains("done"), "{error}");
+    assert!(error.to_string().contains("done"), "{error}");
     assert_eq!(dev.ack_within(QUIET).await, None);
     // Reported once, not once per retransmission.
     while let Ok(ev) = rig.events.try_recv() {
         assert!(!matches!(ev, LinkEvent::CommitFailed { .. }), "{ev:?}");
     }
-    rig.store
+    rig.sessions
         .set_status(rig.session, tapeshape::store::SessionStatus::Open)
         .unwrap();
     dev.reading(4, 0, 700).await;

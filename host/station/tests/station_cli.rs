@@ -71,7 +71,7 @@ async fn a_session_follows_its_set_and_completes() {
         .unwrap()
         .readings
         .into_iter()
-        .map(|r| (r.measurement, r.device.value_tenth_mm))
+        .map(|r| (r.measurement, r.value_tenth_mm))
         .collect();
     let want: Vec<(String, u32)> = names
         .iter()
@@ -207,7 +207,7 @@ async fn demo_stores_exactly_what_the_simulated_tape_confirmed() {
         .unwrap()
         .readings
         .into_iter()
-        .map(|r| (r.measurement, r.device.value_tenth_mm))
+        .map(|r| (r.measurement, r.value_tenth_mm))
         .collect();
     assert_eq!(got, want);
     // The printed session lists every measurement.
@@ -270,7 +270,7 @@ async fn ctrl_c_stops_cleanly_and_resume_continues_the_set() {
         .unwrap()
         .readings
         .into_iter()
-        .map(|r| (r.measurement, r.device.value_tenth_mm))
+        .map(|r| (r.measurement, r.value_tenth_mm))
         .collect();
     let want: Vec<(String, u32)> = names
         .iter()

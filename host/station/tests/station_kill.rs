@@ -105,7 +105,7 @@ async fn station_killed_at_random_keeps_every_reading_once() {
         .unwrap()
         .readings
         .iter()
-        .map(|r| (r.device.seq, r.device.value_tenth_mm))
+        .map(|r| (r.tape().unwrap().seq, r.value_tenth_mm))
         .collect();
     let want: Vec<(u32, u32)> = (0..TOTAL).map(|seq| (seq, value_of(seq))).collect();
     assert_eq!(got, want);

@@ -7,11 +7,13 @@ mod tui_fixture;
 
 use std::time::{Duration, Instant};
 
-use tapeshape::store::SessionId;
-use tapeshape::tui::app::{App, Effect, Event, Screen, SessionView, Sex};
-use tapeshape::tui::operator::SimOperator;
-use tapeshape::tui::services::{EstimateEvent, EstimateSummary};
+use crossterm::event::{KeyCode, KeyEvent};
+use tapeshape::services::{EstimateEvent, EstimateSummary};
+use tapeshape::store::{ReadingSource, SessionId, TapeOrigin};
+use tapeshape::tui::app::{App, Effect, Event, Screen, SessionView};
+use tapeshape::tui::operator::{Autopilot, SimOperator};
 use tapeshape::tui::update;
+use tapeshape_engine::ansur::Sex;
 use tui_fixture::*;
 
 /// Plays the runner: performs `fx` with fixtures, returning the answers.
@@ -33,6 +35,8 @@ fn answer(fx: Vec<Effect>, seq: &mut u32, log: &mut Vec<Effect>) -> Vec<Event> {
                 readings: Vec::new(),
                 superseded: Vec::new(),
                 marks: Vec::new(),
+                estimate: None,
+                status: tapeshape::store::SessionStatus::Open,
             })),
             Effect::SimTape { name, slip } => {
                 assert!(!slip);
@@ -43,13 +47,13 @@ fn answer(fx: Vec<Effect>, seq: &mut u32, log: &mut Vec<Effect>) -> Vec<Event> {
                         id: tapeshape::store::ReadingId(i64::from(*seq)),
                         session_id: SessionId(1),
                         measurement: name.clone(),
-                        device: tapeshape::store::DeviceReading {
+                        value_tenth_mm: v,
+                        source: ReadingSource::Tape(TapeOrigin {
                             device_id: DEVICE,
                             boot_id: 1,
                             seq: *seq,
-                            value_tenth_mm: v,
                             device_time_ms: 0,
-                        },
+                        }),
                         received_at_ms: 0,
                         superseded_by: None,
                         withdrawn_at_ms: None,
@@ -63,16 +67,16 @@ fn answer(fx: Vec<Effect>, seq: &mut u32, log: &mut Vec<Effect>) -> Vec<Event> {
                 value_tenth_mm: (req.value_mm * 10.0).round() as u32,
                 outcome: Default::default(),
             }),
-            Effect::StartEstimate(job) => out.push(Event::Estimate(EstimateEvent::Done(Box::new(
-                EstimateSummary {
-                    session: job.session,
+            Effect::StartEstimate(request) => out.push(Event::Estimate(EstimateEvent::Done(
+                Box::new(EstimateSummary {
+                    session: request.session,
                     rows: Vec::new(),
                     plausibility: "typical".into(),
                     warnings: Vec::new(),
                     silhouettes: Default::default(),
                     seconds: 0.1,
-                },
-            )))),
+                }),
+            ))),
             Effect::Export { .. } => out.push(Event::Exported(Ok(vec!["/x/body.glb".into()]))),
             _ => {}
         }
@@ -80,12 +84,12 @@ fn answer(fx: Vec<Effect>, seq: &mut u32, log: &mut Vec<Effect>) -> Vec<Event> {
     out
 }
 
-fn drive(app: &mut App, op: &mut SimOperator, steps: usize, log: &mut Vec<Effect>) {
+fn drive(app: &mut App, pilot: &mut Autopilot, steps: usize, log: &mut Vec<Effect>) {
     let mut now = Instant::now();
     let mut seq = 0;
     for _ in 0..steps {
         now += Duration::from_millis(500);
-        let mut queue: Vec<Event> = op.next(app, now);
+        let mut queue: Vec<Event> = pilot.tick(app, now);
         while let Some(ev) = queue.pop() {
             let fx = update(app, ev);
             queue.extend(answer(fx, &mut seq, log));
@@ -97,11 +101,17 @@ fn drive(app: &mut App, op: &mut SimOperator, steps: usize, log: &mut Vec<Effect
 fn the_simulated_operator_runs_a_session_to_an_export() {
     let mut a = app(true);
     connect(&mut a);
-    let mut op = SimOperator::new(Sex::Male, Duration::from_millis(400));
+    let mut pilot = Autopilot::new(SimOperator::new(
+        Some(Sex::Male),
+        Duration::from_millis(400),
+    ));
     let mut log = Vec::new();
-    drive(&mut a, &mut op, 200, &mut log);
+    drive(&mut a, &mut pilot, 200, &mut log);
     assert_eq!(a.screen, Screen::Result);
-    assert!(a.exported.is_some(), "the operator exports the result");
+    assert!(
+        a.result.exported.is_some(),
+        "the operator exports the result"
+    );
     let created = log
         .iter()
         .find_map(|e| match e {
@@ -125,15 +135,19 @@ fn the_simulated_operator_runs_a_session_to_an_export() {
 fn a_key_press_stops_the_simulated_operator() {
     let mut a = app(true);
     connect(&mut a);
-    let mut op = SimOperator::new(Sex::Female, Duration::from_millis(400));
+    let mut pilot = Autopilot::new(SimOperator::new(
+        Some(Sex::Female),
+        Duration::from_millis(400),
+    ));
     let mut log = Vec::new();
-    drive(&mut a, &mut op, 5, &mut log);
+    drive(&mut a, &mut pilot, 5, &mut log);
     assert_eq!(a.screen, Screen::Measuring);
-    send(&mut a, [ch('z')]);
+    let key = pilot.person_key(KeyEvent::from(KeyCode::Char('z')));
+    send(&mut a, [key]);
     let before = a.session.as_ref().unwrap().accepted().len();
     assert!(before >= 1, "the operator measured before the takeover");
     let n = log.len();
-    drive(&mut a, &mut op, 50, &mut log);
+    drive(&mut a, &mut pilot, 50, &mut log);
     assert_eq!(a.screen, Screen::Measuring);
     assert_eq!(a.session.as_ref().unwrap().accepted().len(), before);
     assert!(

@@ -10,10 +10,11 @@ use crossterm::event::KeyCode;
 use ratatui::backend::TestBackend;
 use ratatui::Terminal;
 use tapeshape::link::LinkEvent;
+use tapeshape::services::{EstimateEvent, EstimateSummary, ResultRow, Silhouettes, Stage};
+use tapeshape::session::ResumeOffer;
 use tapeshape::store::{Session, SessionId, SessionStatus, SessionSummary};
-use tapeshape::tui::app::{App, Event, ResumeOffer};
+use tapeshape::tui::app::{App, Event};
 use tapeshape::tui::draw;
-use tapeshape::tui::services::{EstimateEvent, EstimateSummary, ResultRow, Silhouettes, Stage};
 use tapeshape_protocol::Fault;
 use tui_fixture::*;
 
@@ -108,7 +109,7 @@ fn unit_slip() {
         [Event::Checked {
             name: "waist".into(),
             value_tenth_mm: 3_300,
-            outcome: tapeshape::tui::services::CheckOutcome {
+            outcome: tapeshape::services::CheckOutcome {
                 unit_slip: Some(
                     "waist 33.0 cm fits 33.0 in (83.8 cm): check the tape's unit".into(),
                 ),
@@ -148,7 +149,13 @@ fn device_screen_disconnected() {
         &mut a,
         [
             Event::Link(LinkEvent::WaitingForPort {
-                error: "No such file or directory".into(),
+                error: tapeshape::link::PortError {
+                    path: "/dev/ttyACM0".into(),
+                    error: std::sync::Arc::new(tokio_serial::Error::new(
+                        tokio_serial::ErrorKind::NoDevice,
+                        "No such file or directory",
+                    )),
+                },
             }),
             ch('d'),
         ],
@@ -300,6 +307,7 @@ fn summaries() -> Vec<SessionSummary> {
         },
         current_readings: n,
         total_readings: n + 1,
+        estimate_made_at_ms: None,
     };
     vec![
         s(3, "c-test", SessionStatus::Open, 2, 30),
@@ -338,8 +346,9 @@ fn help_overlay_in_the_demo() {
     let mut a = app(true);
     connect(&mut a);
     open_session(&mut a, &[]);
-    // First key takes over, second opens the help.
-    send(&mut a, [ch('?'), ch('?')]);
+    // A person takes over (the autopilot turns their first key into
+    // TakenOver), then opens the help.
+    send(&mut a, [Event::TakenOver, ch('?')]);
     insta::assert_snapshot!(render(&a));
 }
 

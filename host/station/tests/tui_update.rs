@@ -4,10 +4,13 @@
 
 mod tui_fixture;
 
-use crossterm::event::KeyCode;
+use crossterm::event::{KeyCode, KeyEvent};
+use tapeshape::services::{EstimateEvent, Stage};
 use tapeshape::store::{Mark, ReadingId, SessionId, SessionStatus};
-use tapeshape::tui::app::{Autopilot, DisplayUnit, Effect, Event, ItemState, Screen};
-use tapeshape::tui::services::{EstimateEvent, Stage};
+use tapeshape::tui::app::{Effect, Event, ItemState, Pilot, Screen};
+use tapeshape::tui::operator::{Autopilot, SimOperator};
+use tapeshape::tui::ShowLength as _;
+use tapeshape_engine::predict::Unit;
 use tui_fixture::*;
 
 #[test]
@@ -245,11 +248,11 @@ fn unit_toggle_changes_display_only() {
     open_session(&mut a, &[]);
     take(&mut a, 0, "stature", 17_650);
     send(&mut a, [ch('i')]);
-    assert_eq!(a.unit, DisplayUnit::Inch);
+    assert_eq!(a.unit, Unit::In);
     assert_eq!(a.unit.format(254), "1.00 in");
     assert_eq!(a.unit.format(17_650), "69.49 in");
     send(&mut a, [ch('i')]);
-    assert_eq!(a.unit, DisplayUnit::Cm);
+    assert_eq!(a.unit, Unit::Cm);
     assert_eq!(a.unit.format(17_650), "176.5 cm");
     assert_eq!(a.session.as_ref().unwrap().items[0].value, Some(17_650));
 }
@@ -298,7 +301,7 @@ fn a_resumed_session_continues_with_the_first_missing_measurement() {
     let mut a = app(false);
     send(
         &mut a,
-        [Event::Resumable(tapeshape::tui::app::ResumeOffer {
+        [Event::Resumable(tapeshape::session::ResumeOffer {
             session: SessionId(3),
             customer: "c-test".into(),
             set: Some("quick".into()),
@@ -317,34 +320,32 @@ fn a_resumed_session_continues_with_the_first_missing_measurement() {
 #[test]
 fn the_first_human_key_takes_over_from_the_simulated_operator() {
     let mut a = app(true);
-    assert_eq!(a.autopilot, Autopilot::Driving);
+    assert_eq!(a.demo, Some(Pilot::Simulated));
+    let mut pilot = Autopilot::new(SimOperator::new(None, std::time::Duration::ZERO));
+    assert!(pilot.driving());
     connect(&mut a);
     open_session(&mut a, &[]);
-    // The simulated operator's keys act while it drives.
-    let fx = send(
-        &mut a,
-        [Event::SimKey(crossterm::event::KeyEvent::from(
-            KeyCode::Char('m'),
-        ))],
-    );
+    // The simulated operator's keys act while it drives: on the measuring
+    // screen it asks the simulated tape for the current measurement.
+    let keys = pilot.tick(&a, std::time::Instant::now());
+    let fx = send(&mut a, keys);
     assert!(fx.contains(&Effect::SimTape {
         name: "stature".into(),
         slip: false
     }));
     // A person presses s: it only takes over (no skip).
-    send(&mut a, [ch('s')]);
-    assert_eq!(a.autopilot, Autopilot::TakenOver);
+    let person = |pilot: &mut Autopilot, c| pilot.person_key(KeyEvent::from(KeyCode::Char(c)));
+    let ev = person(&mut pilot, 's');
+    send(&mut a, [ev]);
+    assert_eq!(a.demo, Some(Pilot::Person));
+    assert!(!pilot.driving());
     assert_eq!(a.session.as_ref().unwrap().items[0].state, ItemState::Todo);
-    // From now on the simulated operator's keys are ignored ...
-    let fx = send(
-        &mut a,
-        [Event::SimKey(crossterm::event::KeyEvent::from(
-            KeyCode::Char('m'),
-        ))],
-    );
-    assert!(fx.is_empty());
+    // From now on the simulated operator's keys are not given ...
+    let later = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    assert!(pilot.tick(&a, later).is_empty());
     // ... and the person's keys act.
-    send(&mut a, [ch('s')]);
+    let ev = person(&mut pilot, 's');
+    send(&mut a, [ev]);
     assert_eq!(
         a.session.as_ref().unwrap().items[0].state,
         ItemState::Skipped
@@ -399,7 +400,7 @@ fn export_marks_the_session_done_and_history_delete_asks_first() {
     send(
         &mut a,
         [Event::Estimate(EstimateEvent::Done(Box::new(
-            tapeshape::tui::services::EstimateSummary {
+            tapeshape::services::EstimateSummary {
                 session: SessionId(3),
                 rows: Vec::new(),
                 plausibility: "typical".into(),
@@ -413,7 +414,7 @@ fn export_marks_the_session_done_and_history_delete_asks_first() {
     let fx = send(&mut a, [ch('f'), ch('x')]);
     assert!(fx.contains(&Effect::Export {
         session: SessionId(3),
-        format: tapeshape::tui::services::ExportFormat::Obj
+        format: tapeshape::estimate::MeshFormat::Obj
     }));
     let fx = send(
         &mut a,
@@ -429,7 +430,7 @@ fn export_marks_the_session_done_and_history_delete_asks_first() {
     send(
         &mut a,
         [Event::Estimate(EstimateEvent::Done(Box::new(
-            tapeshape::tui::services::EstimateSummary {
+            tapeshape::services::EstimateSummary {
                 session: SessionId(3),
                 rows: Vec::new(),
                 plausibility: "typical".into(),
@@ -469,6 +470,7 @@ fn history_rows() -> Vec<tapeshape::store::SessionSummary> {
         },
         current_readings: 1,
         total_readings: 1,
+        estimate_made_at_ms: None,
     }]
 }
 
@@ -507,6 +509,8 @@ fn a_resumed_session_shows_the_operator_marks_it_was_left_with() {
             measurements: quick(),
             readings: vec![("chest".into(), 5_800)],
             superseded: Vec::new(),
+            estimate: None,
+            status: tapeshape::store::SessionStatus::Open,
             marks: vec![
                 ("stature".into(), Mark::Skipped),
                 ("chest".into(), Mark::KeptFlagged),
@@ -540,10 +544,12 @@ fn an_unanswered_flag_comes_back_after_a_restart() {
             measurements: quick(),
             readings: vec![("chest".into(), 5_800), ("waist".into(), 8_000)],
             superseded: Vec::new(),
+            estimate: None,
+            status: tapeshape::store::SessionStatus::Open,
             marks: vec![("waist".into(), Mark::KeptFlagged)],
         })],
     );
-    let checks: Vec<&tapeshape::tui::services::CheckRequest> = fx
+    let checks: Vec<&tapeshape::services::CheckRequest> = fx
         .iter()
         .filter_map(|f| match f {
             Effect::Check(r) => Some(r),
@@ -567,7 +573,7 @@ fn an_unanswered_flag_comes_back_after_a_restart() {
         [Event::Checked {
             name: "chest".into(),
             value_tenth_mm: 5_800,
-            outcome: tapeshape::tui::services::CheckOutcome {
+            outcome: tapeshape::services::CheckOutcome {
                 flag: Some("chest 58.0 cm is 6 SD below the others' prediction".into()),
                 unit_slip: None,
                 note: None,

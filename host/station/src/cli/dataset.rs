@@ -118,14 +118,14 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
                 .collect();
             let mut sorted = worst.clone();
             sorted.sort_by(f64::total_cmp);
-            println!(
+            outln!(
                 "wrote {} bodies to {} in {:.1} s; fit: median worst-dimension error {:.2} mm, 90th percentile {:.2} mm",
                 d.len(),
                 out.display(),
                 t.elapsed().as_secs_f64(),
                 sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN),
                 sorted.get(sorted.len() * 9 / 10).copied().unwrap_or(f64::NAN)
-            );
+            )?;
         }
         Command::GenerateFaces { n, seed, out } => {
             let settings = PopulationSettings {
@@ -138,29 +138,29 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
             bar.finish_and_clear();
             d.write(&out)
                 .with_context(|| format!("writing {}", out.display()))?;
-            println!(
+            outln!(
                 "wrote {} faces ({} vertices each) to {}",
                 d.len(),
                 d.header.n_vertices,
                 out.display()
-            );
+            )?;
         }
         Command::Import { dir, out } => {
             let d = dataset::import_dir(&dir)?;
             d.write(&out)
                 .with_context(|| format!("writing {}", out.display()))?;
-            println!(
+            outln!(
                 "imported {} meshes ({} vertices each) into {}",
                 d.len(),
                 d.header.n_vertices,
                 out.display()
-            );
+            )?;
         }
         Command::Stats { file, json } => {
             let d = Dataset::read(&file)?;
             let h = &d.header;
             if !json {
-                println!(
+                outln!(
                     "{}: {:?} dataset, {} bodies, {} vertices, {} triangles, written by {}",
                     file.display(),
                     h.kind,
@@ -168,20 +168,23 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
                     h.n_vertices,
                     h.n_faces,
                     h.created_by
-                );
+                )?;
                 if let Some(s) = &h.settings {
-                    println!(
+                    outln!(
                         "made with seed {}, n {}, male fraction {}, local variation {}",
-                        s.seed, s.n, s.male_fraction, s.local_variation_sd
-                    );
+                        s.seed,
+                        s.n,
+                        s.male_fraction,
+                        s.local_variation_sd
+                    )?;
                 }
             }
             if h.kind == dataset::DatasetKind::Population {
                 let stats = dataset::population_statistics(&d)?;
                 if json {
-                    println!("{}", serde_json::to_string_pretty(&stats)?);
+                    outln!("{}", serde_json::to_string_pretty(&stats)?)?;
                 } else {
-                    print!("{}", dataset::statistics_markdown(&stats));
+                    out!("{}", dataset::statistics_markdown(&stats))?;
                 }
             }
         }

@@ -32,8 +32,10 @@ use tapeshape_sim::pty::TtyStream;
 use tapeshape_sim::tape::{play, Script, TapeTiming};
 
 use crate::cli::station::{plan, record, RecordOptions};
-use crate::cli::Global;
-use crate::store::{Store, DATA_DIR_ENV};
+use crate::cli::{mono_wanted, reading_tolerance, Global};
+use crate::services::station::StationServices;
+use crate::session::Sessions;
+use crate::store::DATA_DIR_ENV;
 
 /// Arguments of `tapeshape demo`.
 #[derive(clap::Args, Clone, Debug)]
@@ -86,34 +88,34 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     }
     let set = tapeshape_measure::MeasurementSet::load(&args.measurement_set)?;
     let explicit = global.data_dir.is_some() || std::env::var_os(DATA_DIR_ENV).is_some();
-    let (store, temp) = if explicit {
-        (global.open_store()?, None)
+    let (sessions, temp) = if explicit {
+        (global.open_sessions()?, None)
     } else {
         let dir = tempfile::Builder::new()
             .prefix("tapeshape-demo-")
             .tempdir()
             .context("creating a temporary data directory for the demo")?;
-        (Store::open(dir.path())?, Some(dir))
+        (Sessions::open(dir.path())?, Some(dir))
     };
     if temp.is_some() {
-        println!(
+        outln!(
             "demo store {} (temporary; pass --data-dir DIR to keep the session)",
-            store.path().display()
-        );
+            sessions.store().path().display()
+        )?;
     }
     use std::io::IsTerminal as _;
     let interactive =
         !args.headless && std::io::stdout().is_terminal() && std::io::stdin().is_terminal();
     if interactive {
-        return run_interactive(&args, global, store, temp.as_ref().map(|t| t.path()));
+        return run_interactive(&args, global, sessions, temp.as_ref().map(|t| t.path()));
     }
     let (script, customer) = demo_script(&set, args.seed)?;
     // Synthetic lengths (a set without ANSUR columns) are not a body: the
     // estimate may refuse them, which is then reported, not an error.
     let real_customer = demo_customer(&set, args.seed)?.sex.is_some();
-    println!("demo customer: {customer}");
-    let session = store.create_session(&format!("demo-{}", args.seed), Some(&set.name))?;
-    let plan = plan(&store, &session, &[])?;
+    outln!("demo customer: {customer}")?;
+    let session = sessions.create(&format!("demo-{}", args.seed), Some(&set.name), None)?;
+    let plan = plan(&sessions, &session, &[])?;
     let n = set.definitions.len();
 
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -122,12 +124,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         .build()
         .context("starting the async runtime")?;
     runtime.block_on(async {
-        // A boot id that differs per run, as a real board's does.
-        let boot_id = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.subsec_nanos() ^ (d.as_secs() as u32))
-            .unwrap_or(1);
-        let harness = FirmwareHarness::start(HarnessConfig::fast(0x7a9e_da70_0000_0001, boot_id))
+        let harness = FirmwareHarness::start(HarnessConfig::fast(0x7a9e_da70_0000_0001, boot_id()))
             .context("starting the simulated tape firmware")?;
         let timeline = script
             .timeline(TapeTiming::default())
@@ -149,7 +146,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         };
         let outcome = tokio::time::timeout(
             Duration::from_secs(args.timeout_s),
-            record(options, store.clone(), session.id, plan),
+            record(options, sessions.clone(), session.id, plan),
         )
         .await;
         player.abort();
@@ -158,34 +155,34 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
             Err(_) => bail!(
                 "the demo session was not complete after {} s ({} of {n} readings stored)",
                 args.timeout_s,
-                store.reading_count(session.id)?
+                sessions.store().reading_count(session.id)?
             ),
         }
     })?;
-    println!();
-    let detail = store.open_session(session.id)?;
-    print!("{}", crate::cli::session::render(&detail));
-    println!();
-    let tolerance = crate::tui::wiring::reading_tolerance_m(args.reading_tolerance)?;
+    outln!()?;
+    let detail = sessions.store().open_session(session.id)?;
+    out!("{}", crate::cli::session::render(&detail))?;
+    outln!()?;
+    let services = StationServices::new(sessions, reading_tolerance(args.reading_tolerance)?);
     headless_estimate(
+        &services,
         &detail,
         args.export_dir.as_deref(),
         real_customer,
-        tolerance,
     )
 }
 
 /// Estimates the body from a recorded session with the station's services
-/// and prints the interface's result table; exports into `export` if given.
+/// (which store it with the session) and prints the interface's result
+/// table; exports into `export` if given.
 fn headless_estimate(
+    services: &StationServices,
     detail: &crate::store::SessionDetail,
     export: Option<&std::path::Path>,
     must_succeed: bool,
-    reading_tolerance_m: Option<f64>,
 ) -> anyhow::Result<()> {
-    use crate::tui::services::{EstimateEvent, EstimateJob, Services as _};
-    let services = crate::tui::wiring::StationServices::with_reading_tolerance(reading_tolerance_m);
-    let job = EstimateJob {
+    use crate::services::{EstimateEvent, EstimateRequest, Services as _};
+    let request = EstimateRequest {
         session: detail.session.id,
         readings: detail
             .current_readings()
@@ -194,7 +191,7 @@ fn headless_estimate(
     };
     let (tx, rx) = std::sync::mpsc::channel();
     let _cancel = services.start_estimate(
-        job,
+        request,
         Box::new(move |ev| {
             let _ = tx.send(ev);
         }),
@@ -207,49 +204,48 @@ fn headless_estimate(
                 bail!("the estimate was refused: {e}")
             }
             Ok(EstimateEvent::Failed(e)) => {
-                println!("estimate refused (synthetic lengths are not a body): {e}");
+                outln!("estimate refused (synthetic lengths are not a body): {e}")?;
                 return Ok(());
             }
             Ok(EstimateEvent::Cancelled) => bail!("the estimate was cancelled"),
             Err(_) => bail!("the estimate did not finish within 120 s"),
         }
     };
-    println!(
+    outln!(
         "estimate: {} readings in {:.2} s; plausibility: {}",
         summary.rows.len(),
         summary.seconds,
         summary.plausibility
-    );
-    println!(
+    )?;
+    outln!(
         "{:<34} {:>9} {:>9} {:>7}",
-        "measurement (cm)", "target", "body", "error"
-    );
+        "measurement (cm)",
+        "target",
+        "body",
+        "error"
+    )?;
     for r in &summary.rows {
-        println!(
+        outln!(
             "{:<34} {:>9.1} {:>9.1} {:>+7.2}",
             r.name,
             r.target_mm / 10.0,
             r.achieved_mm / 10.0,
             (r.achieved_mm - r.target_mm) / 10.0
-        );
+        )?;
     }
     for w in &summary.warnings {
-        println!("warning: {w}");
+        outln!("warning: {w}")?;
     }
     if let Some(dir) = export {
-        use crate::tui::services::ExportFormat;
+        use crate::estimate::MeshFormat;
         let mut files = Vec::new();
-        for f in [ExportFormat::Glb, ExportFormat::Obj, ExportFormat::Ply] {
-            files.extend(
-                services
-                    .export(&detail.session, f, dir)
-                    .map_err(anyhow::Error::msg)?,
-            );
+        for f in [MeshFormat::Glb, MeshFormat::Obj, MeshFormat::Ply] {
+            files.extend(services.export(detail.session.id, f, dir)?);
         }
         files.sort();
         files.dedup();
         for f in files {
-            println!("exported {}", f.display());
+            outln!("exported {}", f.display())?;
         }
     }
     Ok(())
@@ -260,11 +256,10 @@ fn headless_estimate(
 fn run_interactive(
     args: &Args,
     global: &Global,
-    store: Store,
+    sessions: Sessions,
     temp: Option<&std::path::Path>,
 ) -> anyhow::Result<()> {
-    use crate::tui::app::Sex;
-    use crate::tui::operator::{SimOperator, SimTape};
+    use crate::tui::operator::{Autopilot, SimOperator, SimTape};
     let set = tapeshape_measure::MeasurementSet::load(&args.measurement_set)?;
     let customer = demo_customer(&set, args.seed)?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -282,55 +277,50 @@ fn run_interactive(
         customer.values.into_iter().collect(),
         args.speedup,
     );
-    let sex = match customer.sex {
-        Some(tapeshape_engine::ansur::Sex::Female) => Sex::Female,
-        Some(tapeshape_engine::ansur::Sex::Male) => Sex::Male,
-        None => Sex::Unspecified,
-    };
     let pace = Duration::from_secs_f64((4.0 / args.speedup).clamp(0.15, 2.0));
-    let operator = SimOperator::new(sex, pace);
-    let export_dir = match (&args.export_dir, temp) {
-        (Some(d), _) => d.clone(),
-        (None, Some(t)) => t.join("exports"),
-        (None, None) => crate::store::resolve_data_dir(global.data_dir.as_deref())?.join("exports"),
+    let operator = SimOperator::new(customer.sex, pace);
+    let data_dir = match temp {
+        Some(t) => t.to_path_buf(),
+        None => global.data_dir()?,
     };
+    let export_dir = match &args.export_dir {
+        Some(d) => d.clone(),
+        None => data_dir.join("exports"),
+    };
+    let services = std::sync::Arc::new(StationServices::new(
+        sessions.clone(),
+        reading_tolerance(args.reading_tolerance)?,
+    ));
     let options = crate::tui::runner::RunOptions {
-        store: store.clone(),
+        sessions: sessions.clone(),
         port: harness.host_path().to_path_buf(),
         port_label: format!("simulated tape ({})", harness.host_path().display()),
         baud: 115_200,
-        mono: crate::cli::station::mono_wanted(args.mono),
+        mono: mono_wanted(args.mono),
         export_dir: export_dir.clone(),
+        log_dir: data_dir,
         default_set: set.name.clone(),
-        demo: Some((tape, operator)),
+        demo: Some((tape, Autopilot::new(operator))),
     };
-    let services =
-        std::sync::Arc::new(crate::tui::wiring::StationServices::with_reading_tolerance(
-            crate::tui::wiring::reading_tolerance_m(args.reading_tolerance)?,
-        ));
-    let global = match temp {
-        Some(t) => Global {
-            data_dir: Some(t.to_path_buf()),
-            ..global.clone()
-        },
-        None => global.clone(),
-    };
-    let result = crate::tui::runner::run_with_log(options, services, &runtime, &global);
+    let result = crate::tui::runner::run_with_log(options, services, &runtime);
     drop(harness);
-    println!("demo customer: {}", customer.description);
-    for s in store.list_sessions()?.iter().take(3) {
-        println!(
+    outln!("demo customer: {}", customer.description)?;
+    for s in sessions.store().list_sessions()?.iter().take(3) {
+        outln!(
             "session {} customer {} {} ({} readings)",
-            s.session.id, s.session.customer_id, s.session.status, s.current_readings
-        );
+            s.session.id,
+            s.session.customer_id,
+            s.session.status,
+            s.current_readings
+        )?;
     }
     if temp.is_some() {
-        println!(
+        outln!(
             "the demo's store and exports were temporary ({}); pass --data-dir DIR to keep them",
-            store.path().display()
-        );
+            sessions.store().path().display()
+        )?;
     } else {
-        println!("exports: {}", export_dir.display());
+        outln!("exports: {}", export_dir.display())?;
     }
     result
 }

@@ -51,21 +51,21 @@ pub fn run_cmd(args: &Args) -> anyhow::Result<()> {
         };
         let res =
             exp::run(e, &opts, &all_methods).with_context(|| format!("experiment {}", e.name()))?;
-        println!(
+        outln!(
             "{}: done in {:.1} min, results in {}",
             e.name(),
             res.seconds / 60.0,
             out.display()
-        );
+        )?;
         for h in &res.headline {
-            println!("{h}");
+            outln!("{h}")?;
         }
         for c in &res.checks {
-            println!(
+            outln!(
                 "check: {} — {}",
                 c.what,
                 if c.passed { "ok" } else { "FAILED" }
-            );
+            )?;
             if !c.passed {
                 failed.push(format!("{}: {}", e.name(), c.what));
             }

@@ -17,9 +17,10 @@ use tapeshape_mesh::{Mesh, Topology, Vec3};
 
 use crate::cli::Global;
 
-/// Length unit of the mesh file's coordinates.
+/// The scale of a mesh file's coordinates (a file property, not a reading's
+/// unit: MakeHuman writes decimetres).
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Unit {
+pub enum MeshUnit {
     /// Metres (tapeshape's own files).
     M,
     /// Decimetres (MakeHuman's files).
@@ -30,13 +31,13 @@ pub enum Unit {
     Mm,
 }
 
-impl Unit {
+impl MeshUnit {
     fn to_metres(self) -> f64 {
         match self {
-            Unit::M => 1.0,
-            Unit::Dm => 0.1,
-            Unit::Cm => 0.01,
-            Unit::Mm => 0.001,
+            MeshUnit::M => 1.0,
+            MeshUnit::Dm => 0.1,
+            MeshUnit::Cm => 0.01,
+            MeshUnit::Mm => 0.001,
         }
     }
 }
@@ -57,7 +58,9 @@ fn sets_help() -> String {
         }
     }
     s.push_str(
-        "\nValues are millimetres. The mesh must be a body in the template topology \
+        "\nValues are millimetres. Group totals (the knee and arm loops of paper34) are \
+         derived: the sum of their members, marked \"derived\" in --json; `tapeshape predict` \
+         takes the members, not the total. The mesh must be a body in the template topology \
          (13,718 vertices, e.g. exported by tapeshape), station frame: Z up, +Y front, \
          +X the body's right. `--describe` prints each measurement's instruction.",
     );
@@ -88,7 +91,7 @@ pub struct Args {
     /// Unit of the mesh file's coordinates (no guessing: a body of implausible
     /// size is an error that names the likely unit).
     #[arg(long, value_enum, default_value = "m")]
-    pub unit: Unit,
+    pub unit: MeshUnit,
 
     /// Print the set's measurements and the operator's instruction for each, then exit.
     #[arg(long)]
@@ -99,7 +102,8 @@ pub struct Args {
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     let set = MeasurementSet::load(&args.set).context("loading the measurement set")?;
     if args.describe {
-        return write_stdout(&describe(&set));
+        out!("{}", describe(&set))?;
+        return Ok(());
     }
     let path = args.mesh.as_deref().context("no MESH given")?;
     let model = tapeshape_body::BodyModel::shared().context("loading the body template")?;
@@ -116,7 +120,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     } else {
         render_table(&set, &results)
     };
-    write_stdout(&text)?;
+    out!("{text}")?;
     if failed > 0 {
         bail!(
             "{failed} of {} measurements failed (see above)",
@@ -126,22 +130,12 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Writes to stdout; a closed pipe (`tapeshape measure ... | head`) is not an error.
-fn write_stdout(text: &str) -> anyhow::Result<()> {
-    use std::io::Write as _;
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        r => r.context("writing to stdout"),
-    }
-}
-
 /// Reads an OBJ or PLY body, converts it to metres and checks that it is in
 /// the template topology and of plausible size.
 pub fn read_template_mesh(
     path: &Path,
     topology: &Topology,
-    unit: Unit,
+    unit: MeshUnit,
 ) -> anyhow::Result<Vec<Vec3>> {
     let ext = path
         .extension()
@@ -189,25 +183,25 @@ pub fn read_template_mesh(
     Ok(vertices)
 }
 
-fn unit_name(u: Unit) -> &'static str {
+fn unit_name(u: MeshUnit) -> &'static str {
     match u {
-        Unit::M => "metres",
-        Unit::Dm => "decimetres",
-        Unit::Cm => "centimetres",
-        Unit::Mm => "millimetres",
+        MeshUnit::M => "metres",
+        MeshUnit::Dm => "decimetres",
+        MeshUnit::Cm => "centimetres",
+        MeshUnit::Mm => "millimetres",
     }
 }
 
-fn unit_flag(u: Unit) -> &'static str {
+fn unit_flag(u: MeshUnit) -> &'static str {
     match u {
-        Unit::M => "m",
-        Unit::Dm => "dm",
-        Unit::Cm => "cm",
-        Unit::Mm => "mm",
+        MeshUnit::M => "m",
+        MeshUnit::Dm => "dm",
+        MeshUnit::Cm => "cm",
+        MeshUnit::Mm => "mm",
     }
 }
 
-fn check_size(path: &Path, v: &[Vec3], unit: Unit) -> anyhow::Result<()> {
+fn check_size(path: &Path, v: &[Vec3], unit: MeshUnit) -> anyhow::Result<()> {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for p in v {
@@ -236,7 +230,7 @@ fn check_size(path: &Path, v: &[Vec3], unit: Unit) -> anyhow::Result<()> {
     if !(0.5..=2.6).contains(&h) {
         // Which unit would make the file's numbers a plausible person?
         let raw = h / unit.to_metres();
-        let hint = [Unit::M, Unit::Dm, Unit::Cm, Unit::Mm]
+        let hint = [MeshUnit::M, MeshUnit::Dm, MeshUnit::Cm, MeshUnit::Mm]
             .into_iter()
             .find(|u| (0.5..=2.6).contains(&(raw * u.to_metres())))
             .map_or(String::new(), |u| {
@@ -321,7 +315,11 @@ pub fn render_table(set: &MeasurementSet, results: &[Result<Measured, MeasureErr
     out
 }
 
-/// The JSON document: set, mesh, unit, one object per measurement (mm), group sums.
+/// The JSON document: set, mesh, unit, one object per measurement (mm),
+/// group sums. Every name under `measurements` is a measurement
+/// `tapeshape predict` takes (for a set its model carries); a group is
+/// marked `"derived": "sum"` with the members it sums (`sum_of`), and
+/// `predict` takes those members, not the total.
 pub fn to_json(
     set: &MeasurementSet,
     mesh: &Path,
@@ -362,7 +360,16 @@ pub fn to_json(
                 .iter()
                 .map(|&i| results[i].as_ref().ok().map(|m| m.value))
                 .sum();
-            serde_json::json!({"name": g, "value_mm": sum.map(|s| s * 1000.0)})
+            let sum_of: Vec<&str> = members
+                .iter()
+                .map(|&i| set.definitions[i].name.as_str())
+                .collect();
+            serde_json::json!({
+                "name": g,
+                "derived": "sum",
+                "sum_of": sum_of,
+                "value_mm": sum.map(|s| s * 1000.0),
+            })
         })
         .collect();
     serde_json::json!({
@@ -405,9 +412,9 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = write_template_obj(dir.path(), 1.0);
         let model = tapeshape_body::BodyModel::shared().unwrap();
-        let v = read_template_mesh(&path, model.topology(), Unit::M).unwrap();
+        let v = read_template_mesh(&path, model.topology(), MeshUnit::M).unwrap();
         // Metres read as millimetres: an error that names the right unit.
-        let e = read_template_mesh(&path, model.topology(), Unit::Mm)
+        let e = read_template_mesh(&path, model.topology(), MeshUnit::Mm)
             .unwrap_err()
             .to_string();
         assert!(e.contains("--unit m)"), "{e}");
@@ -427,11 +434,11 @@ mod tests {
         assert!((stature - direct).abs() < 1e-3, "{stature} vs {direct}");
         // The same body written in millimetres: an error naming the unit, then right with --unit mm.
         let path_mm = write_template_obj(dir.path(), 1000.0);
-        let e = read_template_mesh(&path_mm, model.topology(), Unit::M)
+        let e = read_template_mesh(&path_mm, model.topology(), MeshUnit::M)
             .unwrap_err()
             .to_string();
         assert!(e.contains("--unit mm"), "{e}");
-        let v_mm = read_template_mesh(&path_mm, model.topology(), Unit::Mm).unwrap();
+        let v_mm = read_template_mesh(&path_mm, model.topology(), MeshUnit::Mm).unwrap();
         let s_mm = c.measure_one(0, &v_mm).unwrap().value * 1000.0;
         assert!((s_mm - direct).abs() < 1e-6);
     }
@@ -446,7 +453,7 @@ mod tests {
         )
         .unwrap();
         let model = tapeshape_body::BodyModel::shared().unwrap();
-        let e = read_template_mesh(&path, model.topology(), Unit::M)
+        let e = read_template_mesh(&path, model.topology(), MeshUnit::M)
             .unwrap_err()
             .to_string();
         assert!(e.contains("not in the template topology"), "{e}");

@@ -7,12 +7,40 @@
 //! `pub fn run(args: Args, global: &Global) -> anyhow::Result<()>`, add
 //! `pub mod foo;` here, one variant to `Command` in `main.rs` and one
 //! dispatch line.
+//!
+//! Printing: commands print with `outln!` (and `out!`), which return the
+//! write's error instead of panicking as `println!` does, so that a closed
+//! pipe (`tapeshape predict --list | head`) ends the command quietly: `main`
+//! exits with success on a broken pipe, as ripgrep and grep do
+//! ([`is_broken_pipe`]).
+//!
+//! Layer: the top; the commands may use every module of the station.
 
 use std::path::PathBuf;
 
 use anyhow::Context as _;
 
+use crate::session::Sessions;
 use crate::store::{resolve_data_dir, Store};
+
+/// `print!` to stdout that returns `std::io::Result<()>` instead of
+/// panicking when stdout is closed. (Defined before the command modules, so
+/// they see it.)
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use ::std::io::Write as _;
+        ::std::write!(::std::io::stdout().lock(), $($arg)*)
+    }};
+}
+
+/// `println!` to stdout that returns `std::io::Result<()>` instead of
+/// panicking when stdout is closed (see the module docs).
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use ::std::io::Write as _;
+        ::std::writeln!(::std::io::stdout().lock(), $($arg)*)
+    }};
+}
 
 pub mod dataset;
 pub mod demo;
@@ -39,10 +67,20 @@ pub struct Global {
 }
 
 impl Global {
+    /// The data directory (`--data-dir`, `TAPESHAPE_DATA_DIR` or the user's).
+    pub fn data_dir(&self) -> anyhow::Result<PathBuf> {
+        Ok(resolve_data_dir(self.data_dir.as_deref())?)
+    }
+
     /// Opens the session store in the chosen data directory.
     pub fn open_store(&self) -> anyhow::Result<Store> {
-        let dir = resolve_data_dir(self.data_dir.as_deref())?;
+        let dir = self.data_dir()?;
         Store::open(&dir).with_context(|| format!("opening the session store in {}", dir.display()))
+    }
+
+    /// The session layer over the store in the chosen data directory.
+    pub fn open_sessions(&self) -> anyhow::Result<Sessions> {
+        self.open_store().map(Sessions::new)
     }
 }
 
@@ -63,17 +101,26 @@ pub fn init_logging(verbose: u8) {
         .try_init();
 }
 
-/// Formats milliseconds since the Unix epoch as an RFC 3339 UTC time to the
-/// second (`2026-11-22T05:30:00Z`).
-pub fn format_time_ms(ms: i64) -> String {
-    let t =
-        std::time::UNIX_EPOCH + std::time::Duration::from_millis(u64::try_from(ms).unwrap_or(0));
-    humantime::format_rfc3339_seconds(t).to_string()
+/// Is `err` (or anything in its chain) a write to a closed pipe? Then the
+/// reader has what it wanted (`| head`) and the command ends quietly.
+pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
-/// Formats a length in tenths of a millimetre as millimetres (`951.2 mm`).
-pub fn format_tenth_mm(v: u32) -> String {
-    format!("{}.{} mm", v / 10, v % 10)
+/// Monochrome when asked, or when `NO_COLOR` is set to anything non-empty
+/// (<https://no-color.org>).
+pub fn mono_wanted(flag: bool) -> bool {
+    flag || std::env::var_os("NO_COLOR").is_some_and(|v| !v.is_empty())
+}
+
+/// Parses `--reading-tolerance MM` into metres (see
+/// [`crate::services::station::reading_tolerance_m`]).
+pub fn reading_tolerance(mm: Option<f64>) -> anyhow::Result<Option<f64>> {
+    Ok(crate::services::station::reading_tolerance_m(mm)?)
 }
 
 #[cfg(test)]
@@ -81,10 +128,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn formats() {
-        assert_eq!(format_tenth_mm(9512), "951.2 mm");
-        assert_eq!(format_tenth_mm(7), "0.7 mm");
-        assert_eq!(format_time_ms(0), "1970-01-01T00:00:00Z");
-        assert_eq!(format_time_ms(1_000_000_000_123), "2001-09-09T01:46:40Z");
+    fn a_broken_pipe_is_found_under_context() {
+        let e = anyhow::Error::new(std::io::Error::from(std::io::ErrorKind::BrokenPipe))
+            .context("writing the list");
+        assert!(is_broken_pipe(&e));
+        let other = anyhow::Error::new(std::io::Error::from(std::io::ErrorKind::NotFound));
+        assert!(!is_broken_pipe(&other));
     }
 }

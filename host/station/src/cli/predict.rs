@@ -15,9 +15,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _};
 use tapeshape_engine::predict::{Engine, EstimateReport, Inputs, PredictSettings};
-use tapeshape_mesh::io::PlyPrecision;
 
 use super::Global;
+use crate::estimate::MeshFormat;
 
 /// Arguments of `tapeshape predict`.
 #[derive(clap::Args, Debug)]
@@ -100,11 +100,11 @@ impl std::ops::Deref for EngineRef {
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     let engine = load_engine(args.model.as_deref())?;
     if args.list {
-        print_list(&engine);
+        print_list(&engine)?;
         return Ok(());
     }
     if let Some(out) = &args.out {
-        mesh_format(out)?;
+        MeshFormat::from_path(out)?;
     }
     let mut inputs = match &args.measurements {
         Some(p) => Inputs::from_file(p)?,
@@ -126,86 +126,65 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         ..PredictSettings::default()
     };
     let estimate = engine.predict(&inputs, &settings)?;
-    print_report(&estimate.report);
+    print_report(&estimate.report)?;
     if let Some(path) = &args.report {
         let json = serde_json::to_vec_pretty(&estimate.report).context("encoding the report")?;
         tapeshape_mesh::io::write_atomic(path, &json)
             .with_context(|| format!("writing the report {}", path.display()))?;
-        println!("report: {}", path.display());
+        outln!("report: {}", path.display())?;
     }
     if let Some(path) = &args.out {
         write_mesh(&estimate.mesh, path)?;
-        println!("body: {}", path.display());
+        outln!("body: {}", path.display())?;
     }
     Ok(())
 }
 
-#[derive(Clone, Copy)]
-enum MeshFormat {
-    Obj,
-    Ply,
-    Glb,
-}
-
-fn mesh_format(path: &Path) -> anyhow::Result<MeshFormat> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default();
-    Ok(match ext.as_str() {
-        "obj" => MeshFormat::Obj,
-        "ply" => MeshFormat::Ply,
-        "glb" => MeshFormat::Glb,
-        _ => bail!(
-            "{}: unknown mesh format '{ext}': name the output .obj, .ply or .glb",
-            path.display()
-        ),
-    })
-}
-
 fn write_mesh(mesh: &tapeshape_mesh::Mesh, path: &Path) -> anyhow::Result<()> {
-    let r = match mesh_format(path)? {
-        MeshFormat::Obj => tapeshape_mesh::io::write_obj(mesh, path),
-        MeshFormat::Ply => tapeshape_mesh::io::write_ply(mesh, path, PlyPrecision::F64),
-        MeshFormat::Glb => tapeshape_mesh::io::write_glb(mesh, path),
-    };
-    r.with_context(|| format!("writing the body {}", path.display()))
+    MeshFormat::from_path(path)?
+        .write(mesh, path)
+        .with_context(|| format!("writing the body {}", path.display()))
 }
 
-fn print_list(engine: &Engine) {
+fn print_list(engine: &Engine) -> std::io::Result<()> {
     let sets: Vec<(&str, Vec<String>)> = ["quick", "ansur", "paper34"]
         .iter()
         .filter_map(|s| engine.set_members(s).ok().map(|m| (*s, m)))
         .collect();
-    println!(
+    outln!(
         "{} measurements ({}); sets: {}",
         engine.set().len(),
         engine.file().measurement_set.name,
         sets.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
-    );
+    )?;
     for d in &engine.set().definitions {
         let member: Vec<&str> = sets
             .iter()
             .filter(|s| s.1.contains(&d.name))
             .map(|s| s.0)
             .collect();
-        println!("  {:<32} {:<18} {}", d.name, member.join(","), d.label);
+        outln!("  {:<32} {:<18} {}", d.name, member.join(","), d.label)?;
     }
+    Ok(())
 }
 
 fn fmt_mm(x: Option<f64>) -> String {
     x.map_or_else(|| "-".into(), |v| format!("{:.1}", v))
 }
 
-fn print_report(r: &EstimateReport) {
+fn print_report(r: &EstimateReport) -> std::io::Result<()> {
     let p = &r.prediction;
-    println!(
+    outln!(
         "{:<28} {:>9} {:>9} {:>9} {:>9} {:>8}",
-        "measurement (mm)", "target", "start", "step 1", "step 2", "error"
-    );
+        "measurement (mm)",
+        "target",
+        "start",
+        "step 1",
+        "step 2",
+        "error"
+    )?;
     for m in p.measurements.iter().filter(|m| m.target_mm.is_some()) {
-        println!(
+        outln!(
             "{:<28} {:>9} {:>9} {:>9} {:>9} {:>8}",
             m.name,
             fmt_mm(m.target_mm),
@@ -213,10 +192,10 @@ fn print_report(r: &EstimateReport) {
             fmt_mm(m.step1_mm),
             fmt_mm(m.step2_mm),
             m.error_mm.map_or("-".into(), |e| format!("{e:.2}"))
-        );
+        )?;
     }
     let pl = &p.plausibility;
-    println!(
+    outln!(
         "plausibility: result {:?} (Mahalanobis {:.2} over {} components), readings {:?} (Mahalanobis {:.2}); step 2 left the PCA space by {:.2} mm RMS ({:.2} max); flipped triangles {}, degenerate {}",
         pl.label,
         pl.mahalanobis,
@@ -227,17 +206,18 @@ fn print_report(r: &EstimateReport) {
         pl.out_of_space_max_mm,
         pl.flipped_triangles,
         pl.degenerate_triangles
-    );
+    )?;
     let t = &p.timings;
-    println!(
+    outln!(
         "time: checks {:.1} ms, start {:.1} ms, step 1 {:.1} ms, step 2 {:.1} ms, total {:.1} ms",
         r.check_time.as_secs_f64() * 1e3,
         t.start.as_secs_f64() * 1e3,
         t.step1.as_secs_f64() * 1e3,
         t.step2.as_secs_f64() * 1e3,
         t.total.as_secs_f64() * 1e3
-    );
+    )?;
     for w in &r.warnings {
-        println!("warning: {w}");
+        outln!("warning: {w}")?;
     }
+    Ok(())
 }

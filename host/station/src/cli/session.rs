@@ -1,9 +1,16 @@
-//! `tapeshape session ...`: show one session's readings, close or delete it.
+//! `tapeshape session ...`: show one session's readings and stored
+//! estimate, export its stored estimate again, close or delete it.
+
+use std::path::PathBuf;
 
 use anyhow::bail;
 
-use crate::cli::{format_tenth_mm, format_time_ms, Global};
-use crate::store::{SessionDetail, SessionId, SessionStatus};
+use crate::cli::Global;
+use crate::estimate::MeshFormat;
+use crate::services::station::StationServices;
+use crate::services::Services as _;
+use crate::store::{ReadingSource, SessionDetail, SessionId, SessionStatus, StoredEstimate};
+use crate::text::{format_tenth_mm, format_time_ms};
 
 /// Arguments of `tapeshape session`.
 #[derive(clap::Args, Clone, Debug)]
@@ -13,13 +20,46 @@ pub struct Args {
     pub action: Action,
 }
 
+/// A mesh format on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FormatArg {
+    /// Binary glTF (Y up).
+    Glb,
+    /// Wavefront OBJ (station frame).
+    Obj,
+    /// Stanford PLY, f64 coordinates (station frame).
+    Ply,
+}
+
+impl From<FormatArg> for MeshFormat {
+    fn from(f: FormatArg) -> Self {
+        match f {
+            FormatArg::Glb => MeshFormat::Glb,
+            FormatArg::Obj => MeshFormat::Obj,
+            FormatArg::Ply => MeshFormat::Ply,
+        }
+    }
+}
+
 /// `tapeshape session` actions.
 #[derive(clap::Subcommand, Clone, Debug)]
 pub enum Action {
-    /// Print a session and every reading (retakes included).
+    /// Print a session, every reading (retakes included) and its stored estimate.
     Show {
         /// Session id (see `tapeshape sessions`).
         id: i64,
+    },
+    /// Export the session's stored estimate again (no new estimate): the
+    /// body in each format asked for, plus its report.
+    Export {
+        /// Session id.
+        id: i64,
+        /// Folder to write into [default: DATA_DIR/exports].
+        #[arg(long, value_name = "DIR")]
+        dir: Option<PathBuf>,
+        /// Mesh formats (comma-separated).
+        #[arg(long, value_enum, value_delimiter = ',', default_value = "glb")]
+        format: Vec<FormatArg>,
     },
     /// Set a session's status (open, done, abandoned).
     SetStatus {
@@ -28,7 +68,7 @@ pub enum Action {
         /// New status.
         status: SessionStatus,
     },
-    /// Delete a session and its readings for good.
+    /// Delete a session, its readings and its estimate for good.
     Delete {
         /// Session id.
         id: i64,
@@ -40,17 +80,38 @@ pub enum Action {
 
 /// Runs the action.
 pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
-    let store = global.open_store()?;
+    let sessions = global.open_sessions()?;
     match args.action {
         Action::Show { id } => {
-            print!("{}", render(&store.open_session(SessionId(id))?));
+            let store = sessions.store();
+            let detail = store.open_session(SessionId(id))?;
+            out!("{}", render(&detail))?;
+            if let Some(e) = store.estimate(SessionId(id))? {
+                outln!("{}", render_estimate(&e, &detail))?;
+            }
+        }
+        Action::Export { id, dir, format } => {
+            let dir = match dir {
+                Some(d) => d,
+                None => global.data_dir()?.join("exports"),
+            };
+            let services = StationServices::new(sessions, None);
+            let mut files = Vec::new();
+            for f in format {
+                files.extend(services.export(SessionId(id), f.into(), &dir)?);
+            }
+            files.sort();
+            files.dedup();
+            for f in files {
+                outln!("exported {}", f.display())?;
+            }
         }
         Action::SetStatus { id, status } => {
-            store.set_status(SessionId(id), status)?;
-            println!("session {id} is now {status}");
+            sessions.set_status(SessionId(id), status)?;
+            outln!("session {id} is now {status}")?;
         }
         Action::Delete { id, yes } => {
-            let s = store.session(SessionId(id))?;
+            let s = sessions.store().session(SessionId(id))?;
             if !yes {
                 bail!(
                     "this would delete session {id} (customer {}) and all its readings; \
@@ -58,15 +119,16 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
                     s.customer_id
                 );
             }
-            store.delete_session(SessionId(id))?;
-            println!("session {id} deleted");
+            sessions.delete(SessionId(id))?;
+            outln!("session {id} deleted")?;
         }
     }
     Ok(())
 }
 
 /// A session as text: header lines, then one line per reading in commit
-/// order; superseded readings (retaken later) are marked.
+/// order; superseded readings (retaken later) are marked, keyboard
+/// readings say so.
 pub fn render(d: &SessionDetail) -> String {
     let s = &d.session;
     let mut out = format!(
@@ -90,20 +152,58 @@ pub fn render(d: &SessionDetail) -> String {
         "MEASUREMENT", "VALUE", "DEVICE", "BOOT", "SEQ", "RECEIVED (UTC)", "NOTE"
     ));
     for r in &d.readings {
-        let note = match r.superseded_by {
-            Some(by) => format!("retaken (reading {by})"),
-            None => String::new(),
+        let mut notes = Vec::new();
+        if let Some(by) = r.superseded_by {
+            notes.push(format!("retaken (reading {by})"));
+        }
+        if r.withdrawn_at_ms.is_some() {
+            notes.push("undone".to_string());
+        }
+        let (device, boot, seq) = match &r.source {
+            ReadingSource::Tape(t) => (
+                format!("{:x}", t.device_id),
+                t.boot_id.to_string(),
+                t.seq.to_string(),
+            ),
+            ReadingSource::Keyboard => ("keyboard".to_string(), "-".into(), "-".into()),
         };
         out.push_str(&format!(
-            "{:<28}  {:>12}  {:>16x}  {:>10}  {:>6}  {:<20}  {}\n",
+            "{:<28}  {:>12}  {:>16}  {:>10}  {:>6}  {:<20}  {}\n",
             r.measurement,
-            format_tenth_mm(r.device.value_tenth_mm),
-            r.device.device_id,
-            r.device.boot_id,
-            r.device.seq,
+            format_tenth_mm(r.value_tenth_mm),
+            device,
+            boot,
+            seq,
             format_time_ms(r.received_at_ms),
-            note
+            notes.join(", ")
         ));
     }
     out
+}
+
+/// The stored estimate in one line: when, from how many readings, whether
+/// the readings changed since, and how to export it again.
+pub fn render_estimate(e: &StoredEstimate, d: &SessionDetail) -> String {
+    let mut current: Vec<(String, u32)> = d
+        .current_readings()
+        .map(|r| (r.measurement.clone(), r.value_tenth_mm))
+        .collect();
+    let mut made_from = e.readings.clone();
+    current.sort();
+    made_from.sort();
+    format!(
+        "estimate stored {} from {} readings ({:.2} s, {}; {} vertices){}; \
+         `tapeshape session export {}` writes it again",
+        format_time_ms(e.made_at_ms),
+        e.readings.len(),
+        e.seconds,
+        e.model_source,
+        e.vertices.len(),
+        if current == made_from {
+            ""
+        } else {
+            "; the readings changed since"
+        },
+        d.session.id
+    )
 }

@@ -1,7 +1,8 @@
 //! `tapeshape sessions`: list the stored sessions with their reading counts.
 
-use crate::cli::{format_time_ms, Global};
+use crate::cli::Global;
 use crate::store::{SessionStatus, SessionSummary};
+use crate::text::format_time_ms;
 
 /// Arguments of `tapeshape sessions`.
 #[derive(clap::Args, Clone, Debug)]
@@ -19,7 +20,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         .into_iter()
         .filter(|s| args.status.is_none_or(|st| s.session.status == st))
         .collect();
-    print!("{}", render(&list));
+    out!("{}", render(&list))?;
     if list.is_empty() {
         eprintln!("no sessions in {}", store.path().display());
     }

@@ -14,11 +14,13 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{bail, Context as _};
-use tapeshape_protocol::{Fault, UnitShown};
+use tapeshape_protocol::UnitShown;
 
-use crate::cli::{format_tenth_mm, Global};
+use crate::cli::{mono_wanted, reading_tolerance, Global};
 use crate::link::{Link, LinkConfig, LinkEvent, Naming, Unassigned};
-use crate::store::{Session, SessionId, SessionStatus, Store};
+use crate::session::Sessions;
+use crate::store::{Session, SessionId, SessionStatus};
+use crate::text::{describe_fault, format_tenth_mm};
 
 /// Arguments of `tapeshape station`.
 #[derive(clap::Args, Clone, Debug)]
@@ -91,12 +93,6 @@ fn line_mode(args: &Args) -> bool {
     args.customer.is_some() || args.session.is_some() || args.resume
 }
 
-/// Monochrome when asked, or when `NO_COLOR` is set to anything non-empty
-/// (<https://no-color.org>).
-pub fn mono_wanted(flag: bool) -> bool {
-    flag || std::env::var_os("NO_COLOR").is_some_and(|v| !v.is_empty())
-}
-
 /// Runs the terminal interface on `port` (the real-tape station).
 fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
     use std::io::IsTerminal as _;
@@ -116,7 +112,7 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
             bail!("{what} belongs to the line mode (with --customer, --session or --resume)");
         }
     }
-    let tolerance = crate::tui::wiring::reading_tolerance_m(args.reading_tolerance)?;
+    let tolerance = reading_tolerance(args.reading_tolerance)?;
     // --set preselects the set on the new customer form.
     let default_set = match &args.measurement_set {
         Some(set) => {
@@ -125,30 +121,33 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         }
         None => "quick".to_string(),
     };
-    let store = global.open_store()?;
+    let sessions = global.open_sessions()?;
+    let data_dir = global.data_dir()?;
     let export_dir = match args.export_dir {
         Some(d) => d,
-        None => crate::store::resolve_data_dir(global.data_dir.as_deref())?.join("exports"),
+        None => data_dir.join("exports"),
     };
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
         .context("starting the async runtime")?;
+    let services = std::sync::Arc::new(crate::services::station::StationServices::new(
+        sessions.clone(),
+        tolerance,
+    ));
     let options = crate::tui::runner::RunOptions {
-        store,
+        sessions,
         port_label: args.port.display().to_string(),
         port: args.port,
         baud: args.baud,
         mono: mono_wanted(args.mono),
         export_dir,
+        log_dir: data_dir,
         default_set,
         demo: None,
     };
-    let services = std::sync::Arc::new(
-        crate::tui::wiring::StationServices::with_reading_tolerance(tolerance),
-    );
-    crate::tui::runner::run_with_log(options, services, &runtime, global)
+    crate::tui::runner::run_with_log(options, services, &runtime)
 }
 
 /// Runs the station until Ctrl-C (or completion with
@@ -160,20 +159,21 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     }
     if args.reading_tolerance.is_some() || args.mono || args.export_dir.is_some() {
         bail!(
-            "--reading-tolerance, --mono and --export-dir belong to the terminal interface;              the line mode (--customer, --session, --resume) only records readings"
+            "--reading-tolerance, --mono and --export-dir belong to the terminal interface; \
+             the line mode (--customer, --session, --resume) only records readings"
         );
     }
-    let store = global.open_store()?;
-    let session = choose_session(&store, &args)?;
-    let plan = plan(&store, &session, &args.measurements)?;
-    println!(
+    let sessions = global.open_sessions()?;
+    let session = choose_session(&sessions, &args)?;
+    let plan = plan(&sessions, &session, &args.measurements)?;
+    outln!(
         "session {} customer {} set {} ({} readings so far); store {}",
         session.id,
         session.customer_id,
         session.measurement_set.as_deref().unwrap_or("-"),
-        store.reading_count(session.id)?,
-        store.path().display()
-    );
+        sessions.store().reading_count(session.id)?,
+        sessions.store().path().display()
+    )?;
     if args.exit_when_complete && plan.as_ref().is_none_or(|p| p.is_empty()) {
         bail!(
             "--exit-when-complete needs something to complete: a --set or --measurements \
@@ -191,7 +191,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         live: args.live,
         exit_when_complete: args.exit_when_complete,
     };
-    runtime.block_on(record(options, store, session.id, plan))
+    runtime.block_on(record(options, sessions, session.id, plan))
 }
 
 /// One measurement still to take: its name and what to tell the operator.
@@ -208,7 +208,7 @@ pub struct Planned {
 /// are numbered). Names the session already has are skipped, so a resumed
 /// session continues where it stopped.
 pub fn plan(
-    store: &Store,
+    sessions: &Sessions,
     session: &Session,
     measurements: &[String],
 ) -> anyhow::Result<Option<Vec<Planned>>> {
@@ -234,7 +234,8 @@ pub fn plan(
     } else {
         return Ok(None);
     };
-    let have: std::collections::HashSet<String> = store
+    let have: std::collections::HashSet<String> = sessions
+        .store()
         .open_session(session.id)?
         .current_readings()
         .map(|r| r.measurement.clone())
@@ -262,17 +263,18 @@ fn check_port(port: &std::path::Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn choose_session(store: &Store, args: &Args) -> anyhow::Result<Session> {
+fn choose_session(sessions: &Sessions, args: &Args) -> anyhow::Result<Session> {
     if let Some(customer) = &args.customer {
         if let Some(set) = &args.measurement_set {
             // Refuse an unknown set before creating the session.
             tapeshape_measure::MeasurementSet::load(set)?;
         }
-        return Ok(store.create_session(customer, args.measurement_set.as_deref())?);
+        return Ok(sessions.create(customer, args.measurement_set.as_deref(), None)?);
     }
     if args.measurement_set.is_some() {
         bail!("--set applies to a new session (--customer); a resumed session keeps its own set");
     }
+    let store = sessions.store();
     let session = if let Some(id) = args.session {
         store.session(SessionId(id))?
     } else {
@@ -314,7 +316,7 @@ pub struct RecordOptions {
 /// `demo` command reuses this with a simulated tape's port.
 pub async fn record(
     options: RecordOptions,
-    store: Store,
+    sessions: Sessions,
     session: SessionId,
     plan: Option<Vec<Planned>>,
 ) -> anyhow::Result<()> {
@@ -323,7 +325,7 @@ pub async fn record(
         baud_rate: args.baud,
         ..LinkConfig::default()
     };
-    let (link, mut events, task) = Link::spawn(&args.port, config, store.clone());
+    let (link, mut events, task) = Link::spawn(&args.port, config, sessions.clone());
     link.set_session(Some(session));
     let mut todo: VecDeque<Planned> = plan.clone().unwrap_or_default().into();
     link.set_naming(match &plan {
@@ -331,7 +333,7 @@ pub async fn record(
         None => Naming::Numbered,
     });
     if let Some(next) = todo.front() {
-        println!("next {} ({})", next.name, next.label);
+        outln!("next {} ({})", next.name, next.label)?;
     }
     let mut last_live = None;
     let mut result = Ok(());
@@ -343,7 +345,7 @@ pub async fn record(
             ev = events.recv() => ev,
             r = &mut ctrl_c, if !stopping => {
                 r.context("listening for Ctrl-C")?;
-                println!("stopping (Ctrl-C)");
+                outln!("stopping (Ctrl-C)")?;
                 stopping = true;
                 link.shutdown();
                 continue;
@@ -351,13 +353,11 @@ pub async fn record(
         };
         let Some(ev) = ev else { break };
         match ev {
-            LinkEvent::PortOpened { path } => {
-                println!(
-                    "port {} opened; waiting for the tape's hello",
-                    path.display()
-                )
-            }
-            LinkEvent::Connected(h) => println!(
+            LinkEvent::PortOpened { path } => outln!(
+                "port {} opened; waiting for the tape's hello",
+                path.display()
+            )?,
+            LinkEvent::Connected(h) => outln!(
                 "connected tape {:016x} boot {} firmware {}.{}.{} protocol {}.{} queue {}",
                 h.device_id,
                 h.boot_id,
@@ -367,16 +367,16 @@ pub async fn record(
                 h.protocol.major,
                 h.protocol.minor,
                 h.queue_capacity
-            ),
+            )?,
             LinkEvent::VersionMismatch(m) => {
-                println!("error {m}");
+                outln!("error {m}")?;
                 result = Err(anyhow::Error::new(m));
                 link.shutdown();
             }
             LinkEvent::Live(l) => {
                 if args.live && last_live != Some(l.value_tenth_mm) {
                     last_live = Some(l.value_tenth_mm);
-                    println!("live {}", format_tenth_mm(l.value_tenth_mm));
+                    outln!("live {}", format_tenth_mm(l.value_tenth_mm))?;
                 }
             }
             LinkEvent::ReadingCommitted {
@@ -387,23 +387,25 @@ pub async fn record(
                     UnitShown::Metric => "cm",
                     UnitShown::Imperial => "in",
                 };
-                println!(
+                outln!(
                     "committed {} = {} (seq {}, tape showing {unit})",
                     reading.measurement,
-                    format_tenth_mm(reading.device.value_tenth_mm),
-                    reading.device.seq
-                );
+                    format_tenth_mm(reading.value_tenth_mm),
+                    reading
+                        .tape()
+                        .map_or(String::from("-"), |t| t.seq.to_string())
+                )?;
                 if plan.is_some() {
                     if todo.front().map(|p| &p.name) == Some(&reading.measurement) {
                         todo.pop_front();
                     }
                     match todo.front() {
-                        Some(next) => println!("next {} ({})", next.name, next.label),
+                        Some(next) => outln!("next {} ({})", next.name, next.label)?,
                         None => {
-                            println!("complete every measurement of the session is stored");
+                            outln!("complete every measurement of the session is stored")?;
                             if args.exit_when_complete {
-                                store.set_status(session, SessionStatus::Done)?;
-                                println!("done session {session} marked done");
+                                sessions.set_status(session, SessionStatus::Done)?;
+                                outln!("done session {session} marked done")?;
                                 link.shutdown();
                             }
                         }
@@ -414,13 +416,13 @@ pub async fn record(
                 seq,
                 last_committed_seq,
                 ..
-            } => println!(
+            } => outln!(
                 "duplicate seq {seq} already stored; acknowledged up to {last_committed_seq}"
-            ),
-            LinkEvent::Gap { expected, got, .. } => println!(
+            )?,
+            LinkEvent::Gap { expected, got, .. } => outln!(
                 "gap got seq {got} but {expected} is missing; waiting for the tape to resend"
-            ),
-            LinkEvent::ReadingUnassigned { reading, why } => println!(
+            )?,
+            LinkEvent::ReadingUnassigned { reading, why } => outln!(
                 "held seq {} {} not stored: {}",
                 reading.seq,
                 format_tenth_mm(reading.value_tenth_mm),
@@ -428,67 +430,36 @@ pub async fn record(
                     Unassigned::NoSession => "no session",
                     Unassigned::NoName => "no measurement name left",
                 }
-            ),
-            LinkEvent::CommitFailed { reading, error } => println!(
+            )?,
+            LinkEvent::CommitFailed { reading, error } => outln!(
                 "commit-failed seq {} {}: {error}; the tape keeps it",
                 reading.seq,
                 format_tenth_mm(reading.value_tenth_mm)
-            ),
-            LinkEvent::Button(b) => println!("button {b:?}"),
+            )?,
+            LinkEvent::Button(b) => outln!("button {b:?}")?,
             LinkEvent::Status(s) => tracing::info!(?s, "device status"),
-            LinkEvent::Fault(f) => println!("fault {}", describe_fault(&f)),
+            LinkEvent::Fault(f) => outln!("fault {}", describe_fault(&f))?,
             LinkEvent::Pong { rtt } => tracing::debug!(?rtt, "pong"),
             LinkEvent::BadFrame { error, counters } => {
-                println!("bad-frame {error} ({} so far)", counters.frames_bad)
+                outln!("bad-frame {error} ({} so far)", counters.frames_bad)?
             }
             LinkEvent::Disconnected { reason, .. } => {
-                println!("disconnected {reason}; reconnecting")
+                outln!("disconnected {reason}; reconnecting")?
             }
-            LinkEvent::WaitingForPort { error } => println!("waiting {error}"),
+            LinkEvent::WaitingForPort { error } => outln!("waiting {error}")?,
             LinkEvent::Stopped => {
-                println!("stopped");
+                outln!("stopped")?;
                 break;
             }
         }
     }
     // The task ends right after Stopped; give it a moment, then go.
     let _ = tokio::time::timeout(Duration::from_secs(2), task).await;
-    let detail = store.open_session(session)?;
-    println!(
+    let detail = sessions.store().open_session(session)?;
+    outln!(
         "session {session}: {} readings stored ({} current)",
         detail.readings.len(),
         detail.current_readings().count()
-    );
+    )?;
     result
-}
-
-/// A device fault in operator words (what happened and what to do).
-pub fn describe_fault(f: &Fault) -> String {
-    match *f {
-        Fault::QueueFull {
-            capacity,
-            refused_value_tenth_mm,
-            ..
-        } => format!(
-            "queue-full: the tape's queue ({capacity}) is full; {} was NOT recorded, take it again",
-            format_tenth_mm(refused_value_tenth_mm)
-        ),
-        Fault::QueueRecovered { queue_len } => format!("queue-recovered ({queue_len} held)"),
-        Fault::TapeSilent { silent_ms } => format!(
-            "tape-silent: no line from the tape for {:.1} s; check its cable",
-            f64::from(silent_ms) / 1000.0
-        ),
-        Fault::TapeRecovered => "tape-recovered".to_string(),
-        Fault::LineRejected {
-            reason,
-            rejected_total,
-        } => format!("line-rejected {reason:?} ({rejected_total} since boot)"),
-        Fault::VersionMismatch { host, device } => format!(
-            "version-mismatch: the tape speaks protocol {}.{}, it was greeted with {}.{}",
-            device.major, device.minor, host.major, host.minor
-        ),
-        Fault::HostFrameBad { total } => {
-            format!("host-frame-bad: the tape dropped a frame from us ({total} since boot)")
-        }
-    }
 }

@@ -100,7 +100,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     predict::save_model(&file, &args.out)
         .with_context(|| format!("writing the model {}", args.out.display()))?;
     let size = std::fs::metadata(&args.out).map(|m| m.len()).unwrap_or(0);
-    println!(
+    outln!(
         "wrote {} ({:.1} MB): {} bodies, {} measurements ({}), {} PCA components, {} vertices; read {:.1} s, trained {:.1} s",
         args.out.display(),
         size as f64 / 1e6,
@@ -111,6 +111,6 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         file.model.n_vertices(),
         read_s,
         train_s
-    );
+    )?;
     Ok(())
 }

@@ -6,20 +6,35 @@
 //! pulling the tape out to the customer's true value and pressing hold, so
 //! every reading takes the real path: firmware logic, pty, link, store. The
 //! simulated operator ([`SimOperator`]) looks at the [`App`] on each tick and
-//! answers with the keys a careful operator would press ([`Event::SimKey`]);
-//! the app ignores those once a person has pressed a key.
+//! answers with the keys a careful operator would press. [`Autopilot`] is
+//! the demo's keyboard: it hands the simulated operator's keys to the app
+//! until a person presses one, and then only the person's (the app hears of
+//! the takeover as [`Event::TakenOver`], and knows nothing else of the
+//! simulated operator).
 
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use crossterm::event::{KeyCode, KeyEvent};
+use tapeshape_engine::ansur::Sex;
 use tapeshape_protocol::UnitShown;
 use tapeshape_sim::pty::TtyStream;
 use tapeshape_sim::tape::{play, Script, Step, TapeLine, TapeTiming};
 use tokio::io::AsyncWriteExt;
 use tokio::sync::mpsc;
 
-use crate::tui::app::{App, FormField, ItemState, Screen, Sex};
+use crate::tui::app::{App, Event, FormField, Item, ItemState, Screen};
+
+/// The simulated tape could not measure.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SimTapeError {
+    /// The simulated customer has no value for the measurement.
+    #[error("the simulated customer has no value for {0}; take it with Enter instead")]
+    NoValue(String),
+    /// The simulated tape's task ended.
+    #[error("the simulated tape stopped; start the demo again")]
+    Stopped,
+}
 
 /// The simulated tape: measures a named measurement on the simulated
 /// customer when asked.
@@ -88,25 +103,23 @@ impl SimTape {
     /// Pulls the tape to the customer's `name` and holds. With `slip`, the
     /// value is read off the inch scale as if it were centimetres (a unit
     /// slip, to show the check at work).
-    pub fn measure(&self, name: &str, slip: bool) -> Result<(), String> {
-        let v = self.truth(name).ok_or_else(|| {
-            format!("the simulated customer has no value for {name}; take it with Enter instead")
-        })?;
+    pub fn measure(&self, name: &str, slip: bool) -> Result<(), SimTapeError> {
+        let v = self
+            .truth(name)
+            .ok_or_else(|| SimTapeError::NoValue(name.to_string()))?;
         let v = if slip {
             (f64::from(v) / 2.54).round() as u32
         } else {
             v
         };
-        self.tx
-            .send(v)
-            .map_err(|_| "the simulated tape stopped".to_string())
+        self.tx.send(v).map_err(|_| SimTapeError::Stopped)
     }
 }
 
 /// The simulated operator's plan: what it does next given the app.
 #[derive(Debug)]
 pub struct SimOperator {
-    sex: Sex,
+    sex: Option<Sex>,
     pace: Duration,
     last: Option<Instant>,
     /// Item being measured, its value then, and when the tape was asked.
@@ -120,8 +133,9 @@ pub struct SimOperator {
 }
 
 impl SimOperator {
-    /// An operator for a customer of `sex`, acting at most every `pace`.
-    pub fn new(sex: Sex, pace: Duration) -> Self {
+    /// An operator for a customer of `sex` (`None`: not given), acting at
+    /// most every `pace`.
+    pub fn new(sex: Option<Sex>, pace: Duration) -> Self {
         Self {
             sex,
             pace,
@@ -135,7 +149,7 @@ impl SimOperator {
     }
 
     /// The keys to press now (none most ticks).
-    pub fn next(&mut self, app: &App, now: Instant) -> Vec<crate::tui::app::Event> {
+    pub fn next(&mut self, app: &App, now: Instant) -> Vec<Event> {
         if self.last.is_some_and(|t| now.duration_since(t) < self.pace) {
             return Vec::new();
         }
@@ -143,7 +157,7 @@ impl SimOperator {
         match key {
             Some(k) => {
                 self.last = Some(now);
-                vec![crate::tui::app::Event::SimKey(KeyEvent::from(k))]
+                vec![Event::Key(KeyEvent::from(k))]
             }
             None => Vec::new(),
         }
@@ -155,7 +169,7 @@ impl SimOperator {
         }
         match app.screen {
             Screen::NewCustomer => {
-                if app.resume.is_some() {
+                if app.form.resume.is_some() {
                     // Read the offer (2 s, as a person would), then carry
                     // on: the same customer is still there.
                     let seen = *self.resume_seen.get_or_insert(now);
@@ -170,9 +184,9 @@ impl SimOperator {
                     }
                     self.sex_set = true;
                     return match self.sex {
-                        Sex::Female => Some(KeyCode::Char('f')),
-                        Sex::Male => Some(KeyCode::Char('m')),
-                        Sex::Unspecified => None,
+                        Some(Sex::Female) => Some(KeyCode::Char('f')),
+                        Some(Sex::Male) => Some(KeyCode::Char('m')),
+                        None => None,
                     };
                 }
                 Some(KeyCode::Enter)
@@ -217,7 +231,7 @@ impl SimOperator {
 
     /// True unless the tape was asked for `item` less than 10 s ago and its
     /// reading has not arrived yet.
-    fn tape_free(&self, item: &crate::tui::app::Item, now: Instant) -> bool {
+    fn tape_free(&self, item: &Item, now: Instant) -> bool {
         match &self.waiting {
             Some((n, v, t)) => {
                 n != &item.info.name
@@ -225,6 +239,49 @@ impl SimOperator {
                     || now.duration_since(*t) >= Duration::from_secs(10)
             }
             None => true,
+        }
+    }
+}
+
+/// The demo's keyboard: the simulated operator's keys reach the app until a
+/// person presses one; that first key only takes over (so a stray press does
+/// nothing else), and from then on only the person's keys count.
+#[derive(Debug)]
+pub struct Autopilot {
+    operator: SimOperator,
+    person: bool,
+}
+
+impl Autopilot {
+    /// The simulated operator at the keys.
+    pub fn new(operator: SimOperator) -> Self {
+        Self {
+            operator,
+            person: false,
+        }
+    }
+
+    /// Does the simulated operator still have the keys?
+    pub fn driving(&self) -> bool {
+        !self.person
+    }
+
+    /// A key a person pressed, as the app should hear it.
+    pub fn person_key(&mut self, key: KeyEvent) -> Event {
+        if self.person {
+            Event::Key(key)
+        } else {
+            self.person = true;
+            Event::TakenOver
+        }
+    }
+
+    /// The simulated operator's keys for this tick (none once a person took over).
+    pub fn tick(&mut self, app: &App, now: Instant) -> Vec<Event> {
+        if self.person {
+            Vec::new()
+        } else {
+            self.operator.next(app, now)
         }
     }
 }

@@ -1,13 +1,16 @@
-//! The terminal loop: owns the terminal, the tape link, the store and the
-//! services, feeds [`Event`]s to [`update`] and performs the [`Effect`]s.
+//! The terminal loop: owns the terminal, the tape link, the session layer
+//! and the services, feeds [`Event`]s to [`update`] and performs the
+//! [`Effect`]s.
 //!
 //! Why a separate runner: everything with I/O lives here, so the app stays
-//! testable. Keys come from a small input thread (crossterm's blocking
-//! `poll`/`read`, stopped through a flag), link events from the link's
-//! channel, estimate progress from the services' sink, and the demo's
-//! simulated operator from [`crate::tui::operator`] on the tick. Store
-//! operations are short (a few milliseconds with the fsync) and run inline;
-//! checks, estimates and exports run on blocking threads.
+//! testable; and it only performs effects: what a session is and how it
+//! changes is the session layer's ([`Sessions`]), the work on readings and
+//! bodies the services'. Keys come from a small input thread (crossterm's
+//! blocking `poll`/`read`, stopped through a flag), link events from the
+//! link's channel, estimate progress from the services' sink, and the
+//! demo's simulated operator from [`Autopilot`] on the tick. Session changes
+//! are short (a few milliseconds with the fsync) and run inline; checks,
+//! estimates, exports and keyboard captures run on blocking threads.
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -18,24 +21,16 @@ use anyhow::Context as _;
 use crossterm::event::{self as ct, KeyEventKind};
 use tokio::sync::mpsc;
 
-use crate::link::{Link, LinkConfig, LinkEvent, LinkHandle, Naming};
-use crate::store::{CommitOutcome, DeviceReading, SessionId, SessionStatus, Store, FIRST_SEQ};
-use crate::tui::app::{
-    update, App, Autopilot, Effect, Event, MeasurementInfo, ResumeOffer, SessionView,
-};
-use crate::tui::operator::{SimOperator, SimTape};
-use crate::tui::services::{Cancel, SharedServices};
-
-/// Device id under which a value captured with Enter (the tape's live value,
-/// not held on the tape) is stored. Such readings do not come through the
-/// tape's numbered queue, so they get their own sequence (boot 0) in the
-/// store's bookkeeping; no real tape has id 0 (ids are random 64-bit values).
-pub const KEYBOARD_CAPTURE_DEVICE_ID: u64 = 0;
+use crate::link::{Link, LinkConfig, LinkHandle, Naming};
+use crate::services::{Cancel, SharedServices};
+use crate::session::Sessions;
+use crate::tui::app::{update, App, AppConfig, Effect, Event};
+use crate::tui::operator::{Autopilot, SimTape};
 
 /// How the runner starts.
 pub struct RunOptions {
-    /// The store.
-    pub store: Store,
+    /// The session layer (and its store).
+    pub sessions: Sessions,
     /// The tape's port (the firmware's host port in the demo).
     pub port: PathBuf,
     /// What to show as the port.
@@ -44,12 +39,14 @@ pub struct RunOptions {
     pub baud: u32,
     /// Monochrome.
     pub mono: bool,
-    /// Folder that exports go to (one sub-folder per session).
+    /// Folder that exports go to.
     pub export_dir: PathBuf,
+    /// Folder of the log file (`tapeshape.log`) while the screen is up.
+    pub log_dir: PathBuf,
     /// Set preselected for new customers.
     pub default_set: String,
-    /// The demo's simulated tape and operator.
-    pub demo: Option<(SimTape, SimOperator)>,
+    /// The demo's simulated tape and keyboard.
+    pub demo: Option<(SimTape, Autopilot)>,
 }
 
 /// Runs the interface in the current terminal until the operator quits.
@@ -67,12 +64,13 @@ async fn run_in(
     services: SharedServices,
 ) -> anyhow::Result<()> {
     let RunOptions {
-        store,
+        sessions,
         port,
         port_label,
         baud,
         mono,
         export_dir,
+        log_dir: _,
         default_set,
         demo,
     } = options;
@@ -85,7 +83,7 @@ async fn run_in(
         baud_rate: baud,
         ..LinkConfig::default()
     };
-    let (link, mut link_events, link_task) = Link::spawn(&port, config, store.clone());
+    let (link, mut link_events, link_task) = Link::spawn(&port, config, sessions.clone());
     let link_tx = tx.clone();
     let forward = tokio::spawn(async move {
         while let Some(ev) = link_events.recv().await {
@@ -99,11 +97,11 @@ async fn run_in(
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_nanos() as u64)
         .unwrap_or(1);
-    let (sim_tape, mut operator) = match demo {
-        Some((t, o)) => (Some(t), Some(o)),
+    let (sim_tape, mut autopilot) = match demo {
+        Some((t, a)) => (Some(t), Some(a)),
         None => (None, None),
     };
-    let mut app = App::new(crate::tui::app::AppConfig {
+    let mut app = App::new(AppConfig {
         port: port_label,
         demo: sim_tape.is_some(),
         mono,
@@ -111,7 +109,7 @@ async fn run_in(
         default_set,
     });
     let mut ctx = Ctx {
-        store,
+        sessions,
         link,
         tx: tx.clone(),
         services,
@@ -122,18 +120,8 @@ async fn run_in(
     for fx in app.start() {
         ctx.perform(fx);
     }
-    if let Some(s) = ctx.store.latest_unfinished_session()? {
-        let readings = ctx
-            .store
-            .open_session(s.id)
-            .map(|d| d.current_readings().count() as u64)
-            .unwrap_or(0);
-        let _ = tx.send(Event::Resumable(ResumeOffer {
-            session: s.id,
-            customer: s.customer_id,
-            set: s.measurement_set,
-            readings,
-        }));
+    if let Some(offer) = ctx.sessions.resume_offer()? {
+        let _ = tx.send(Event::Resumable(offer));
     }
 
     let mut tick = tokio::time::interval(Duration::from_millis(100));
@@ -144,11 +132,16 @@ async fn run_in(
             ev = rx.recv() => match ev { Some(ev) => ev, None => break },
             _ = tick.tick() => Event::Tick,
         };
-        let mut events = vec![ev];
-        if matches!(events[0], Event::Tick) && app.autopilot == Autopilot::Driving {
-            if let Some(op) = operator.as_mut() {
-                events.extend(op.next(&app, Instant::now()));
+        let mut events = Vec::new();
+        match (ev, autopilot.as_mut()) {
+            // In the demo a person's key goes through the autopilot (the
+            // first one takes over).
+            (Event::Key(k), Some(pilot)) => events.push(pilot.person_key(k)),
+            (Event::Tick, Some(pilot)) => {
+                events.push(Event::Tick);
+                events.extend(pilot.tick(&app, Instant::now()));
             }
+            (ev, _) => events.push(ev),
         }
         for ev in events {
             for fx in update(&mut app, ev) {
@@ -193,13 +186,17 @@ fn spawn_input(
                         }
                         Ok(_) => {}
                         Err(e) => {
-                            let _ = tx.send(Event::Failed(format!("reading the keyboard: {e}")));
+                            let _ = tx.send(Event::Failed(format!(
+                                "reading the keyboard: {e}; restart the station"
+                            )));
                             break;
                         }
                     },
                     Ok(false) => {}
                     Err(e) => {
-                        let _ = tx.send(Event::Failed(format!("reading the keyboard: {e}")));
+                        let _ = tx.send(Event::Failed(format!(
+                            "reading the keyboard: {e}; restart the station"
+                        )));
                         break;
                     }
                 }
@@ -209,7 +206,7 @@ fn spawn_input(
 }
 
 struct Ctx {
-    store: Store,
+    sessions: Sessions,
     link: LinkHandle,
     tx: mpsc::UnboundedSender<Event>,
     services: SharedServices,
@@ -235,17 +232,21 @@ impl Ctx {
                 set,
                 notes,
             } => {
-                let r = create_session(&self.store, &customer, &set, notes.as_deref());
+                let r = self.sessions.start(&customer, &set, notes.as_deref());
                 self.send(match r {
                     Ok(v) => Event::SessionReady(v),
-                    Err(e) => Event::Failed(format!("{e:#}")),
+                    Err(e) => Event::Failed(e.to_string()),
                 });
             }
-            Effect::OpenSession(id) => {
-                let r = open_session(&self.store, id);
+            Effect::OpenSession(id) | Effect::ViewSession(id) => {
+                let r = if matches!(fx, Effect::ViewSession(_)) {
+                    self.sessions.open_for_viewing(id)
+                } else {
+                    self.sessions.open_for_measuring(id)
+                };
                 self.send(match r {
                     Ok(v) => Event::SessionReady(v),
-                    Err(e) => Event::Failed(format!("{e:#}")),
+                    Err(e) => Event::Failed(format!("opening session {id}: {e}")),
                 });
             }
             Effect::CaptureLive {
@@ -254,15 +255,15 @@ impl Ctx {
                 value_tenth_mm,
                 unit_shown,
             } => {
-                let store = self.store.clone();
+                let sessions = self.sessions.clone();
                 let tx = self.tx.clone();
                 tokio::task::spawn_blocking(move || {
-                    let ev = match capture_live(&store, session, &name, value_tenth_mm) {
-                        Ok(reading) => Event::Link(LinkEvent::ReadingCommitted {
+                    let ev = match sessions.capture_keyboard(session, &name, value_tenth_mm) {
+                        Ok(reading) => Event::ReadingStored {
                             reading,
                             unit_shown,
-                        }),
-                        Err(e) => Event::Failed(format!("storing the captured value: {e:#}")),
+                        },
+                        Err(e) => Event::Failed(format!("storing the captured value: {e}")),
                     };
                     let _ = tx.send(ev);
                 });
@@ -279,7 +280,7 @@ impl Ctx {
                     });
                 });
             }
-            Effect::StartEstimate(job) => {
+            Effect::StartEstimate(request) => {
                 if let Some(c) = self.cancel.take() {
                     c.cancel();
                 }
@@ -287,7 +288,7 @@ impl Ctx {
                 let sink = Box::new(move |ev| {
                     let _ = tx.send(Event::Estimate(ev));
                 });
-                self.cancel = Some(self.services.start_estimate(job, sink));
+                self.cancel = Some(self.services.start_estimate(request, sink));
             }
             Effect::CancelEstimate => {
                 if let Some(c) = self.cancel.take() {
@@ -298,17 +299,29 @@ impl Ctx {
                 let services = self.services.clone();
                 let tx = self.tx.clone();
                 let folder = self.export_dir.clone();
-                let store = self.store.clone();
                 tokio::task::spawn_blocking(move || {
-                    let r = store
-                        .session(session)
-                        .map_err(|e| e.to_string())
-                        .and_then(|s| services.export(&s, format, &folder));
+                    let r = services
+                        .export(session, format, &folder)
+                        .map_err(|e| e.to_string());
                     let _ = tx.send(Event::Exported(r));
                 });
             }
+            Effect::LoadResult(session) => {
+                let services = self.services.clone();
+                let tx = self.tx.clone();
+                tokio::task::spawn_blocking(move || {
+                    let r = match services.stored_result(session) {
+                        Ok(Some(summary)) => Ok(summary),
+                        Ok(None) => Err(format!(
+                            "session {session} has no stored estimate: press e to estimate it"
+                        )),
+                        Err(e) => Err(e.to_string()),
+                    };
+                    let _ = tx.send(Event::ResultLoaded(r));
+                });
+            }
             Effect::WithdrawReading(id) => {
-                if let Err(e) = self.store.withdraw_reading(id) {
+                if let Err(e) = self.sessions.withdraw(id) {
                     self.send(Event::Failed(format!("withdrawing reading {id}: {e}")));
                 }
             }
@@ -317,21 +330,21 @@ impl Ctx {
                 name,
                 mark,
             } => {
-                if let Err(e) = self.store.set_mark(session, &name, mark) {
+                if let Err(e) = self.sessions.set_mark(session, &name, mark) {
                     self.send(Event::Failed(format!("storing the mark on {name}: {e}")));
                 }
             }
             Effect::SetStatus(id, status) => {
-                if let Err(e) = self.store.set_status(id, status) {
+                if let Err(e) = self.sessions.set_status(id, status) {
                     self.send(Event::Failed(format!("marking session {id} {status}: {e}")));
                 }
             }
-            Effect::LoadHistory => match self.store.list_sessions() {
+            Effect::LoadHistory => match self.sessions.store().list_sessions() {
                 Ok(list) => self.send(Event::History(list)),
                 Err(e) => self.send(Event::Failed(format!("reading the sessions: {e}"))),
             },
             Effect::DeleteSession(id) => {
-                if let Err(e) = self.store.delete_session(id) {
+                if let Err(e) = self.sessions.delete(id) {
                     self.send(Event::Failed(format!("deleting session {id}: {e}")));
                 }
                 self.perform(Effect::LoadHistory);
@@ -339,149 +352,28 @@ impl Ctx {
             Effect::SimTape { name, slip } => match &self.sim_tape {
                 Some(t) => {
                     if let Err(e) = t.measure(&name, slip) {
-                        self.send(Event::Failed(e));
+                        self.send(Event::Failed(e.to_string()));
                     }
                 }
-                None => self.send(Event::Failed("no simulated tape outside the demo".into())),
+                None => self.send(Event::Failed(
+                    "there is no simulated tape outside the demo".into(),
+                )),
             },
             Effect::Quit => {}
         }
     }
 }
 
-fn notes_of(notes: Option<&str>) -> Option<String> {
-    notes.map(str::to_string)
-}
-
-fn load_set(set: &str) -> anyhow::Result<Vec<MeasurementInfo>> {
-    let set = tapeshape_measure::MeasurementSet::load(set)
-        .with_context(|| format!("loading the measurement set {set:?}"))?;
-    Ok(set
-        .definitions
-        .into_iter()
-        .map(|d| MeasurementInfo {
-            name: d.name,
-            label: d.label,
-            description: d.description,
-        })
-        .collect())
-}
-
-/// Creates a session for `customer` following `set` (checked first) and
-/// returns it as the app sees it.
-pub fn create_session(
-    store: &Store,
-    customer: &str,
-    set: &str,
-    notes: Option<&str>,
-) -> anyhow::Result<SessionView> {
-    let measurements = load_set(set)?;
-    let s = store.create_session(customer, Some(set))?;
-    if notes.is_some() {
-        store.set_notes(s.id, notes)?;
-    }
-    Ok(SessionView {
-        id: s.id,
-        customer: s.customer_id,
-        set: set.to_string(),
-        notes: notes_of(notes),
-        measurements,
-        readings: Vec::new(),
-        superseded: Vec::new(),
-        marks: Vec::new(),
-    })
-}
-
-/// Loads session `id` with its readings, reopening it if it was closed
-/// (so readings can be added again).
-pub fn open_session(store: &Store, id: SessionId) -> anyhow::Result<SessionView> {
-    let detail = store.open_session(id)?;
-    if detail.session.status != SessionStatus::Open {
-        store.set_status(id, SessionStatus::Open)?;
-    }
-    let set = detail
-        .session
-        .measurement_set
-        .clone()
-        .unwrap_or_else(|| "quick".to_string());
-    let mut measurements = load_set(&set)?;
-    // Readings under names the set does not have (a numbered session, an
-    // edited set file) still show, after the set's own.
-    for r in detail.current_readings() {
-        if !measurements.iter().any(|m| m.name == r.measurement) {
-            measurements.push(MeasurementInfo {
-                name: r.measurement.clone(),
-                label: r.measurement.clone(),
-                description: "A reading stored under a name this set does not have.".into(),
-            });
-        }
-    }
-    Ok(SessionView {
-        id,
-        customer: detail.session.customer_id.clone(),
-        set,
-        notes: detail.session.notes.clone(),
-        measurements,
-        readings: detail
-            .current_readings()
-            .map(|r| (r.measurement.clone(), r.device.value_tenth_mm))
-            .collect(),
-        superseded: detail
-            .readings
-            .iter()
-            .filter(|r| r.superseded_by.is_some())
-            .map(|r| (r.measurement.clone(), r.device.value_tenth_mm))
-            .collect(),
-        marks: store.marks(id)?,
-    })
-}
-
-/// Stores a value captured with Enter (see [`KEYBOARD_CAPTURE_DEVICE_ID`]).
-pub fn capture_live(
-    store: &Store,
-    session: SessionId,
-    name: &str,
-    value_tenth_mm: u32,
-) -> anyhow::Result<crate::store::StoredReading> {
-    // Two tries: another station process may have taken the number.
-    for _ in 0..2 {
-        let seq = match store.last_committed_seq(KEYBOARD_CAPTURE_DEVICE_ID, 0)? {
-            Some(s) => s + 1,
-            None => FIRST_SEQ,
-        };
-        let device_time_ms = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_millis() as u64)
-            .unwrap_or(0);
-        let reading = DeviceReading {
-            device_id: KEYBOARD_CAPTURE_DEVICE_ID,
-            boot_id: 0,
-            seq,
-            value_tenth_mm,
-            device_time_ms,
-        };
-        match store.commit_reading(session, name, &reading)? {
-            CommitOutcome::Committed(r) => return Ok(r),
-            CommitOutcome::Duplicate { .. } | CommitOutcome::Gap { .. } => continue,
-        }
-    }
-    anyhow::bail!(
-        "the store's keyboard capture numbering changed twice meanwhile; press Enter again"
-    )
-}
-
 /// Runs [`run`] on `runtime` with stderr (where the logs go) sent to
-/// `DATA_DIR/tapeshape.log` meanwhile, so a log line cannot scribble over
-/// the screen; tells on stderr afterwards if anything was logged.
+/// `options.log_dir/tapeshape.log` meanwhile, so a log line cannot scribble
+/// over the screen; tells on stderr afterwards if anything was logged.
 pub fn run_with_log(
     options: RunOptions,
     services: SharedServices,
     runtime: &tokio::runtime::Runtime,
-    global: &crate::cli::Global,
 ) -> anyhow::Result<()> {
     use std::os::fd::AsFd as _;
-    let dir = crate::store::resolve_data_dir(global.data_dir.as_deref())?;
-    let log_path = dir.join("tapeshape.log");
+    let log_path = options.log_dir.join("tapeshape.log");
     let log = std::fs::OpenOptions::new()
         .create(true)
         .append(true)

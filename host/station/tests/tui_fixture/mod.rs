@@ -5,10 +5,10 @@
 #![allow(dead_code)]
 
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
-use tapeshape::link::{LinkCounters, LinkEvent};
-use tapeshape::store::{DeviceReading, ReadingId, SessionId, StoredReading};
+use tapeshape::link::{Disconnect, LinkCounters, LinkEvent};
+use tapeshape::services::CheckOutcome;
+use tapeshape::store::{ReadingId, ReadingSource, SessionId, StoredReading, TapeOrigin};
 use tapeshape::tui::app::{App, AppConfig, Effect, Event, MeasurementInfo, SessionView};
-use tapeshape::tui::services::CheckOutcome;
 use tapeshape::tui::update;
 use tapeshape_protocol::{DeviceHello, Live, SoftwareVersion, UnitShown, PROTOCOL_VERSION};
 
@@ -108,6 +108,8 @@ pub fn open_session(app: &mut App, readings: &[(&str, u32)]) -> Vec<Effect> {
             readings: readings.iter().map(|(n, v)| (n.to_string(), *v)).collect(),
             superseded: Vec::new(),
             marks: Vec::new(),
+            estimate: None,
+            status: tapeshape::store::SessionStatus::Open,
         })],
     );
     let answers: Vec<Event> = fx
@@ -135,13 +137,13 @@ pub fn committed(app: &mut App, seq: u32, name: &str, value_tenth_mm: u32) -> Ve
                 id: ReadingId(100 + i64::from(seq)),
                 session_id: SessionId(3),
                 measurement: name.into(),
-                device: DeviceReading {
+                value_tenth_mm,
+                source: ReadingSource::Tape(TapeOrigin {
                     device_id: DEVICE,
                     boot_id: 7,
                     seq,
-                    value_tenth_mm,
                     device_time_ms: 1000 * u64::from(seq),
-                },
+                }),
                 received_at_ms: 1_700_000_000_000,
                 superseded_by: None,
                 withdrawn_at_ms: None,
@@ -177,7 +179,9 @@ pub fn unplug(app: &mut App) {
     send(
         app,
         [Event::Link(LinkEvent::Disconnected {
-            reason: "read error: device unplugged".into(),
+            reason: Disconnect::Read(std::sync::Arc::new(std::io::Error::other(
+                "device unplugged",
+            ))),
             counters: LinkCounters {
                 disconnects: 1,
                 ..LinkCounters::default()

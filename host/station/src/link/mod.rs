@@ -1,7 +1,7 @@
 //! The serial link to the tape firmware.
 //!
-//! Why a task with channels: the station's user interface (a TUI later, the
-//! `tapeshape station` printer now, tests) must keep drawing while the link
+//! Why a task with channels: the station's front ends (the kiosk interface,
+//! the line-mode printer of `tapeshape station`, tests) must keep drawing while the link
 //! waits for bytes, writes acknowledgements, commits readings and reopens a
 //! port that was pulled out. [`Link::spawn`] starts one tokio task that owns
 //! the port; the application talks to it through a [`LinkHandle`] (commands)
@@ -16,8 +16,9 @@
 //!   different major) yields [`LinkEvent::VersionMismatch`], whose message
 //!   names both versions; readings from that device are ignored (never
 //!   acknowledged) until a compatible hello arrives.
-//! * **Commit before acknowledge.** A reading is committed to the
-//!   [`Store`] on a blocking thread; only after the commit returned does the
+//! * **Commit before acknowledge.** A reading is committed through the
+//!   [`ReadingSink`] (the session layer, [`crate::session::Sessions`]) on a
+//!   blocking thread; only after the commit returned does the
 //!   link write the cumulative `Ack`. A crash between the two costs nothing:
 //!   the device retransmits, the store recognises the duplicate and the link
 //!   acknowledges it again.
@@ -45,15 +46,13 @@
 //!   ([`LinkEvent::BadFrame`]); the decoder resynchronises at the next
 //!   delimiter.
 
-use std::collections::{HashSet, VecDeque};
-use std::fmt;
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::sync::Arc;
 
 use tapeshape_protocol::{
-    encode, ButtonKind, DeviceHello, DeviceMsg, Fault, FrameDecoder, FrameError, HostHello,
-    HostMsg, Live, ProtocolVersion, Reading, SoftwareVersion, Status, UnitShown, MAX_FRAME,
-    PROTOCOL_VERSION,
+    encode, DeviceHello, DeviceMsg, FrameDecoder, FrameError, HostHello, HostMsg, Reading,
+    MAX_FRAME,
 };
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::sync::mpsc;
@@ -61,77 +60,14 @@ use tokio::task::JoinHandle;
 use tokio::time::Instant;
 use tokio_serial::{DataBits, FlowControl, Parity, SerialStream, StopBits};
 
-use crate::store::{CommitOutcome, DeviceReading, SessionId, Store, StoredReading};
+use crate::store::{CommitOutcome, DeviceReading, SessionId, StoreError};
 
-/// Settings of the link. [`LinkConfig::default`] suits the real station.
-#[derive(Clone, Debug)]
-pub struct LinkConfig {
-    /// Baud rate of the host link (8N1, no flow control). Pseudo-terminals
-    /// ignore it.
-    pub baud_rate: u32,
-    /// How often to try reopening a port that is gone.
-    pub reconnect_poll: Duration,
-    /// After opening, how long to wait for a compatible device hello before
-    /// sending the host hello again.
-    pub hello_retry: Duration,
-    /// Silence (no frame at all) after which the device is pinged; three
-    /// times this and the connection is taken as dead and reopened.
-    pub silence_timeout: Duration,
-    /// Protocol version the host announces. Leave at [`PROTOCOL_VERSION`];
-    /// tests change it to exercise the version check.
-    pub protocol: ProtocolVersion,
-    /// Host software version announced in the hello.
-    pub software: SoftwareVersion,
-    /// Capacity of the event channel. When the application does not keep
-    /// up, the link waits (bytes queue in the kernel); nothing is dropped.
-    pub event_capacity: usize,
-}
+mod events;
 
-impl Default for LinkConfig {
-    fn default() -> Self {
-        LinkConfig {
-            baud_rate: 115_200,
-            reconnect_poll: Duration::from_millis(200),
-            hello_retry: Duration::from_secs(1),
-            silence_timeout: Duration::from_secs(3),
-            protocol: PROTOCOL_VERSION,
-            software: host_software_version(),
-            event_capacity: 256,
-        }
-    }
-}
-
-/// This crate's version as a protocol [`SoftwareVersion`] (components above
-/// 255 saturate).
-pub fn host_software_version() -> SoftwareVersion {
-    let part = |s: &str| {
-        s.parse::<u64>()
-            .map_or(0, |v| u8::try_from(v).unwrap_or(u8::MAX))
-    };
-    SoftwareVersion {
-        major: part(env!("CARGO_PKG_VERSION_MAJOR")),
-        minor: part(env!("CARGO_PKG_VERSION_MINOR")),
-        patch: part(env!("CARGO_PKG_VERSION_PATCH")),
-    }
-}
-
-/// How the link names the readings it commits.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Naming {
-    /// No name: readings are held (not stored, not acknowledged) until a
-    /// name is set. The default.
-    None,
-    /// Every reading gets this name: the measurement the operator is taking
-    /// now. A second reading under the same name is a retake (the first is
-    /// kept, marked superseded).
-    Current(String),
-    /// Names used one per committed reading, in order; when the list is used
-    /// up, readings are held. For scripted runs (tests, the demo).
-    Script(VecDeque<String>),
-    /// `reading-1`, `reading-2`, ...: the number is the session's reading
-    /// count plus one. For runs where nobody says what is measured.
-    Numbered,
-}
+pub use events::{
+    host_software_version, CommitError, Disconnect, LinkConfig, LinkCounters, LinkEvent, Naming,
+    PortError, ReadingSink, Unassigned, VersionMismatch,
+};
 
 /// Commands to a running link (sent through [`LinkHandle`]).
 #[derive(Clone, Debug)]
@@ -141,160 +77,6 @@ enum Command {
     Ping,
     GetStatus,
     Shutdown,
-}
-
-/// The device spoke an incompatible protocol version.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct VersionMismatch {
-    /// Protocol version in the device's hello.
-    pub device: ProtocolVersion,
-    /// Firmware version in the device's hello.
-    pub firmware: SoftwareVersion,
-    /// Protocol version this host speaks.
-    pub host: ProtocolVersion,
-}
-
-impl fmt::Display for VersionMismatch {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "protocol version mismatch: the tape (firmware {}.{}.{}) speaks protocol {}.{}, \
-             this station speaks protocol {}.{}; the major numbers must match: update the \
-             tape's firmware or the station so they do",
-            self.firmware.major,
-            self.firmware.minor,
-            self.firmware.patch,
-            self.device.major,
-            self.device.minor,
-            self.host.major,
-            self.host.minor
-        )
-    }
-}
-
-impl std::error::Error for VersionMismatch {}
-
-/// Why a reading was not committed yet (it stays with the device, which
-/// retransmits it).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Unassigned {
-    /// No session is set.
-    NoSession,
-    /// No measurement name (see [`Naming`]).
-    NoName,
-}
-
-/// Counters of one link since it was spawned.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct LinkCounters {
-    /// Frames decoded.
-    pub frames_ok: u64,
-    /// Frames dropped (COBS, CRC, too short, oversized, undecodable).
-    pub frames_bad: u64,
-    /// Readings committed.
-    pub committed: u64,
-    /// Duplicates re-acknowledged.
-    pub duplicates: u64,
-    /// Gaps seen.
-    pub gaps: u64,
-    /// Connections lost.
-    pub disconnects: u64,
-}
-
-/// What the link reports to the application.
-#[derive(Clone, Debug)]
-pub enum LinkEvent {
-    /// The port was opened; the handshake starts.
-    PortOpened {
-        /// The port's path.
-        path: PathBuf,
-    },
-    /// A compatible device said hello (also after a device reboot, with a
-    /// new `boot_id`).
-    Connected(DeviceHello),
-    /// The device speaks an incompatible protocol; its readings are ignored.
-    VersionMismatch(VersionMismatch),
-    /// Live tape value, for display only.
-    Live(Live),
-    /// A reading was committed to the store and acknowledged.
-    ReadingCommitted {
-        /// The stored reading.
-        reading: StoredReading,
-        /// Unit the tape displayed.
-        unit_shown: UnitShown,
-    },
-    /// A retransmission of a reading already committed: not stored again,
-    /// re-acknowledged.
-    Duplicate {
-        /// The duplicate's boot and sequence number.
-        boot_id: u32,
-        /// Its sequence number.
-        seq: u32,
-        /// What was acknowledged.
-        last_committed_seq: u32,
-    },
-    /// A reading arrived before an earlier one: not stored, not
-    /// acknowledged; the device resends the missing one.
-    Gap {
-        /// Boot id.
-        boot_id: u32,
-        /// Sequence number needed next.
-        expected: u32,
-        /// Sequence number received.
-        got: u32,
-    },
-    /// A reading could not be assigned to a session and measurement; it is
-    /// held by the device. Reported once per reading, not per
-    /// retransmission.
-    ReadingUnassigned {
-        /// The reading as sent.
-        reading: Reading,
-        /// What is missing.
-        why: Unassigned,
-    },
-    /// Committing a reading failed (for example the session was closed or
-    /// the disk is full); it was not acknowledged and the device keeps it.
-    /// Reported once per reading and error, not per retransmission.
-    CommitFailed {
-        /// The reading as sent.
-        reading: Reading,
-        /// The store's error message.
-        error: String,
-    },
-    /// A device button was pressed.
-    Button(ButtonKind),
-    /// Periodic device status.
-    Status(Status),
-    /// A device fault or its recovery.
-    Fault(Fault),
-    /// Answer to a ping.
-    Pong {
-        /// Round-trip time.
-        rtt: Duration,
-    },
-    /// A frame was dropped.
-    BadFrame {
-        /// Why.
-        error: FrameError,
-        /// Link counters after counting it.
-        counters: LinkCounters,
-    },
-    /// The connection ended; the link will try to reopen the port.
-    Disconnected {
-        /// What happened, in words.
-        reason: String,
-        /// Counters at that moment.
-        counters: LinkCounters,
-    },
-    /// The port cannot be opened (yet); the link keeps trying every
-    /// `reconnect_poll`. Reported once per distinct error.
-    WaitingForPort {
-        /// The open error, in words.
-        error: String,
-    },
-    /// The link stopped (after [`LinkHandle::shutdown`] or when every handle
-    /// was dropped).
-    Stopped,
 }
 
 /// Handle to a running link. Dropping every clone stops the link.
@@ -344,7 +126,8 @@ pub struct Link;
 
 impl Link {
     /// Starts the link on `port` (a device path such as `/dev/ttyACM0`, or a
-    /// pseudo-terminal's path) committing readings to `store`. Returns the
+    /// pseudo-terminal's path) committing readings through `sink` (the
+    /// session layer). Returns the
     /// command handle, the event receiver and the task (which ends after
     /// [`LinkEvent::Stopped`]). Must be called inside a tokio runtime with
     /// time and I/O enabled.
@@ -353,14 +136,14 @@ impl Link {
     pub fn spawn(
         port: impl Into<PathBuf>,
         config: LinkConfig,
-        store: Store,
+        sink: impl ReadingSink,
     ) -> (LinkHandle, mpsc::Receiver<LinkEvent>, JoinHandle<()>) {
         let (cmd_tx, cmd_rx) = mpsc::unbounded_channel();
         let (ev_tx, ev_rx) = mpsc::channel(config.event_capacity.max(1));
         let task = LinkTask {
             path: port.into(),
             config,
-            store,
+            sink: Arc::new(sink),
             cmds: cmd_rx,
             events: ev_tx,
             session: None,
@@ -377,13 +160,13 @@ impl Link {
 /// Why a connection ended.
 enum End {
     Shutdown,
-    Lost(String),
+    Lost(Disconnect),
 }
 
 struct LinkTask {
     path: PathBuf,
     config: LinkConfig,
-    store: Store,
+    sink: Arc<dyn ReadingSink>,
     cmds: mpsc::UnboundedReceiver<Command>,
     events: mpsc::Sender<LinkEvent>,
     session: Option<SessionId>,
@@ -470,13 +253,11 @@ impl LinkTask {
                     }
                 }
                 Err(error) => {
-                    if last_open_error.as_deref() != Some(error.as_str()) {
+                    let text = error.to_string();
+                    if last_open_error.as_deref() != Some(text.as_str()) {
                         tracing::info!(path = %self.path.display(), %error, "waiting for port");
-                        self.emit(LinkEvent::WaitingForPort {
-                            error: error.clone(),
-                        })
-                        .await;
-                        last_open_error = Some(error);
+                        self.emit(LinkEvent::WaitingForPort { error }).await;
+                        last_open_error = Some(text);
                     }
                 }
             }
@@ -497,7 +278,7 @@ impl LinkTask {
         self.emit(LinkEvent::Stopped).await;
     }
 
-    fn open(&self) -> Result<SerialStream, String> {
+    fn open(&self) -> Result<SerialStream, PortError> {
         let path = self.path.to_string_lossy();
         let builder = tokio_serial::new(path.as_ref(), self.config.baud_rate)
             .data_bits(DataBits::Eight)
@@ -507,7 +288,10 @@ impl LinkTask {
         // serialport opens exclusively (TIOCEXCL + flock) by default, so a
         // second station on the same port fails here instead of stealing
         // half the frames.
-        SerialStream::open(&builder).map_err(|e| format!("cannot open {path}: {e}"))
+        SerialStream::open(&builder).map_err(|e| PortError {
+            path: self.path.clone(),
+            error: Arc::new(e),
+        })
     }
 
     async fn connection(&mut self, port: SerialStream) -> End {
@@ -527,7 +311,7 @@ impl LinkTask {
         // A lone delimiter first ends any partial frame the device holds
         // from an earlier connection (docs/wire-format.md, handshake).
         if let Err(e) = conn.port.write_all(&[0]).await {
-            return End::Lost(format!("write error: {e}"));
+            return End::Lost(Disconnect::Write(Arc::new(e)));
         }
         if let Err(e) = self.send_hello(&mut conn).await {
             return End::Lost(e);
@@ -538,7 +322,7 @@ impl LinkTask {
         loop {
             tokio::select! {
                 r = conn.port.read(&mut buf) => match r {
-                    Ok(0) => return End::Lost("the port reached end-of-file (device unplugged?)".into()),
+                    Ok(0) => return End::Lost(Disconnect::EndOfFile),
                     Ok(n) => {
                         conn.last_rx = Instant::now();
                         conn.pinged_for_silence = false;
@@ -549,7 +333,7 @@ impl LinkTask {
                             }
                         }
                     }
-                    Err(e) => return End::Lost(format!("read error: {e}")),
+                    Err(e) => return End::Lost(Disconnect::Read(Arc::new(e))),
                 },
                 cmd = self.cmds.recv() => {
                     let (ping, status) = (matches!(cmd, Some(Command::Ping)), matches!(cmd, Some(Command::GetStatus)));
@@ -573,16 +357,13 @@ impl LinkTask {
     }
 
     /// Path check, hello retry, silence detection.
-    async fn housekeeping(&mut self, conn: &mut Conn) -> Result<(), String> {
+    async fn housekeeping(&mut self, conn: &mut Conn) -> Result<(), Disconnect> {
         let identity = path_identity(&self.path);
         if identity.is_none() {
-            return Err(format!("{} disappeared", self.path.display()));
+            return Err(Disconnect::PathGone(self.path.clone()));
         }
         if identity != conn.identity {
-            return Err(format!(
-                "{} now points at another device",
-                self.path.display()
-            ));
+            return Err(Disconnect::PathReplaced(self.path.clone()));
         }
         let now = Instant::now();
         if conn.device.is_none() && now - conn.last_hello_tx >= self.config.hello_retry {
@@ -590,10 +371,7 @@ impl LinkTask {
         }
         let silent = now - conn.last_rx;
         if silent >= self.config.silence_timeout * 3 {
-            return Err(format!(
-                "no data from the device for {:.1} s",
-                silent.as_secs_f64()
-            ));
+            return Err(Disconnect::Silent(silent));
         }
         if silent >= self.config.silence_timeout && !conn.pinged_for_silence {
             conn.pinged_for_silence = true;
@@ -602,18 +380,21 @@ impl LinkTask {
         Ok(())
     }
 
-    async fn write(&self, conn: &mut Conn, msg: &HostMsg) -> Result<(), String> {
+    async fn write(&self, conn: &mut Conn, msg: &HostMsg) -> Result<(), Disconnect> {
         let mut out = [0u8; MAX_FRAME];
         // Every HostMsg fits a frame (checked by the protocol crate's
         // largest-message test); an error here would be a protocol bug.
-        let frame = encode(msg, &mut out).map_err(|e| format!("cannot encode {msg:?}: {e}"))?;
+        let frame = encode(msg, &mut out).map_err(|error| Disconnect::Encode {
+            message: format!("{msg:?}"),
+            error,
+        })?;
         conn.port
             .write_all(frame)
             .await
-            .map_err(|e| format!("write error: {e}"))
+            .map_err(|e| Disconnect::Write(Arc::new(e)))
     }
 
-    async fn send_hello(&self, conn: &mut Conn) -> Result<(), String> {
+    async fn send_hello(&self, conn: &mut Conn) -> Result<(), Disconnect> {
         conn.last_hello_tx = Instant::now();
         let hello = HostMsg::Hello(HostHello {
             protocol: self.config.protocol,
@@ -622,7 +403,7 @@ impl LinkTask {
         self.write(conn, &hello).await
     }
 
-    async fn send_ping(&self, conn: &mut Conn) -> Result<(), String> {
+    async fn send_ping(&self, conn: &mut Conn) -> Result<(), Disconnect> {
         conn.ping_nonce = conn.ping_nonce.wrapping_add(1);
         conn.pings.push((conn.ping_nonce, Instant::now()));
         if conn.pings.len() > 16 {
@@ -642,7 +423,7 @@ impl LinkTask {
         &mut self,
         conn: &mut Conn,
         msg: Result<DeviceMsg, FrameError>,
-    ) -> Result<(), String> {
+    ) -> Result<(), Disconnect> {
         let msg = match msg {
             Ok(m) => {
                 self.counters.frames_ok += 1;
@@ -679,7 +460,7 @@ impl LinkTask {
         Ok(())
     }
 
-    async fn on_hello(&mut self, conn: &mut Conn, hello: DeviceHello) -> Result<(), String> {
+    async fn on_hello(&mut self, conn: &mut Conn, hello: DeviceHello) -> Result<(), Disconnect> {
         let first_time = conn.greeted.insert(hello.boot_id);
         if first_time {
             self.send_hello(conn).await?;
@@ -722,7 +503,7 @@ impl LinkTask {
         }
     }
 
-    async fn on_reading(&mut self, conn: &mut Conn, r: Reading) -> Result<(), String> {
+    async fn on_reading(&mut self, conn: &mut Conn, r: Reading) -> Result<(), Disconnect> {
         let Some(device) = conn.device else {
             // Before a compatible hello we do not know who sent it; the
             // device retransmits after the handshake.
@@ -747,8 +528,8 @@ impl LinkTask {
         // Duplicates are acknowledged whether or not a session is set: the
         // store already has them.
         let last = self.blocking({
-            let store = self.store.clone();
-            move || store.last_committed_seq(dev.device_id, dev.boot_id)
+            let sink = self.sink.clone();
+            move || sink.last_committed_seq(dev.device_id, dev.boot_id)
         });
         let last = match last.await {
             Ok(l) => l,
@@ -778,15 +559,9 @@ impl LinkTask {
         };
         let outcome = self
             .blocking({
-                let store = self.store.clone();
+                let sink = self.sink.clone();
                 let name = name.clone();
-                move || {
-                    let name = match name {
-                        Some(n) => n,
-                        None => format!("reading-{}", store.reading_count(session)? + 1),
-                    };
-                    store.commit_reading(session, &name, &dev)
-                }
+                move || sink.commit_tape_reading(session, name.as_deref(), &dev)
             })
             .await;
         match outcome {
@@ -837,13 +612,13 @@ impl LinkTask {
 
     /// Reports a failed commit once per reading and error (the device
     /// retransmits every few hundred milliseconds; one report is enough).
-    async fn commit_failed(&mut self, r: Reading, error: String) {
+    async fn commit_failed(&mut self, r: Reading, error: CommitError) {
         if self.reported_failures.len() > 1024 {
             self.reported_failures.clear();
         }
         if self
             .reported_failures
-            .insert((r.boot_id, r.seq, error.clone()))
+            .insert((r.boot_id, r.seq, error.to_string()))
         {
             tracing::error!(seq = r.seq, %error, "commit failed; reading not acknowledged");
             self.emit(LinkEvent::CommitFailed { reading: r, error })
@@ -851,7 +626,12 @@ impl LinkTask {
         }
     }
 
-    async fn on_duplicate(&mut self, conn: &mut Conn, r: Reading, last: u32) -> Result<(), String> {
+    async fn on_duplicate(
+        &mut self,
+        conn: &mut Conn,
+        r: Reading,
+        last: u32,
+    ) -> Result<(), Disconnect> {
         self.write(
             conn,
             &HostMsg::Ack {
@@ -871,15 +651,15 @@ impl LinkTask {
     }
 
     /// Runs a store call on tokio's blocking pool (SQLite calls block on
-    /// fsync), turning errors into text for the events.
-    async fn blocking<T, F>(&self, f: F) -> Result<T, String>
+    /// fsync).
+    async fn blocking<T, F>(&self, f: F) -> Result<T, CommitError>
     where
         T: Send + 'static,
-        F: FnOnce() -> Result<T, crate::store::StoreError> + Send + 'static,
+        F: FnOnce() -> Result<T, StoreError> + Send + 'static,
     {
         match tokio::task::spawn_blocking(f).await {
-            Ok(r) => r.map_err(|e| e.to_string()),
-            Err(e) => Err(format!("store task failed: {e}")),
+            Ok(r) => r.map_err(|e| CommitError::Store(Arc::new(e))),
+            Err(e) => Err(CommitError::Task(e.to_string())),
         }
     }
 }

@@ -1,8 +1,10 @@
 //! The station's services over the embedded model: an operator's stated
 //! reading uncertainty reaches the reading check.
 
-use tapeshape::tui::services::{CheckRequest, Services as _};
-use tapeshape::tui::wiring::{reading_tolerance_m, StationServices};
+use tapeshape::services::station::{reading_tolerance_m, StationServices};
+use tapeshape::services::{CheckRequest, Services as _};
+use tapeshape::session::Sessions;
+use tapeshape_engine::predict::Unit;
 
 fn chest_after_stature(chest_mm: f64) -> CheckRequest {
     CheckRequest {
@@ -10,7 +12,7 @@ fn chest_after_stature(chest_mm: f64) -> CheckRequest {
         name: "chest".into(),
         value_mm: chest_mm,
         others: vec![("stature".into(), 1760.0)],
-        tape_inches: false,
+        tape_unit: Unit::Cm,
     }
 }
 
@@ -18,15 +20,17 @@ fn chest_after_stature(chest_mm: f64) -> CheckRequest {
 fn a_stated_uncertainty_widens_what_the_check_accepts() {
     // 58 cm of chest on a 176 cm person is many SDs off for a skilled
     // measurer's reading...
-    let skilled = StationServices::new().check(&chest_after_stature(580.0));
+    let dir = tempfile::tempdir().unwrap();
+    let sessions = Sessions::open(dir.path()).unwrap();
+    let services = |tolerance| StationServices::new(sessions.clone(), tolerance);
+    let skilled = services(None).check(&chest_after_stature(580.0));
     assert!(skilled.flag.is_some(), "{skilled:?}");
     // ...but with 10 cm of stated reading uncertainty (a wildly unsure
     // operator) it is no longer a "measure again".
-    let unsure =
-        StationServices::with_reading_tolerance(Some(0.1)).check(&chest_after_stature(580.0));
+    let unsure = services(Some(0.1)).check(&chest_after_stature(580.0));
     assert!(unsure.flag.is_none(), "{unsure:?}");
     // A typical chest passes either way.
-    assert!(StationServices::new()
+    assert!(services(None)
         .check(&chest_after_stature(980.0))
         .flag
         .is_none());

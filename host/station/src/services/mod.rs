@@ -1,17 +1,28 @@
-//! The boundary between the interface and the work it asks for: checking a
-//! captured reading and estimating (and exporting) a body.
+//! The station's services: the work every front end asks for (checking a
+//! captured reading, estimating a body, exporting it, showing a stored
+//! estimate), behind one trait with small plain types.
 //!
 //! Why a boundary: the interface thread must never block on the engine
 //! (an estimate takes a fraction of a second to seconds), and the checks and
 //! estimates have their own modules and tests (`crate::check`,
-//! `crate::estimate`). The app only sees the small, plain types below; the
-//! runner implements [`Services`] over the real modules and tests implement
-//! it with fixtures.
+//! `crate::estimate`). A front end only sees [`Services`] and the types
+//! below; [`station::StationServices`] implements it over the real modules
+//! and the session layer (an estimate is stored with its session as it
+//! finishes, and exports are made from what is stored), and the interface's
+//! tests answer its effects with fixtures instead.
+//!
+//! Layer: above the session layer, below the front ends (the kiosk
+//! interface, the headless demo, the `session export` command).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use crate::store::SessionId;
+use tapeshape_engine::predict::{PredictError, Unit};
+
+use crate::estimate::{EstimateError, ExportError, MeshFormat};
+use crate::store::{SessionId, StoreError};
+
+pub mod station;
 
 /// A reading to check against the readings already taken.
 #[derive(Clone, Debug, PartialEq)]
@@ -24,9 +35,9 @@ pub struct CheckRequest {
     pub value_mm: f64,
     /// The other readings of the session (name, millimetres), in order.
     pub others: Vec<(String, f64)>,
-    /// The tape showed inches when the reading was taken (for messages and
-    /// unit slips).
-    pub tape_inches: bool,
+    /// The unit the tape showed when the reading was taken (for messages
+    /// and unit slips; a keyboard capture says what the tape showed then).
+    pub tape_unit: Unit,
 }
 
 /// What the check found. `None` fields mean nothing to say.
@@ -45,7 +56,7 @@ pub struct CheckOutcome {
 
 /// What to estimate: one session's accepted readings.
 #[derive(Clone, Debug, PartialEq)]
-pub struct EstimateJob {
+pub struct EstimateRequest {
     /// The session.
     pub session: SessionId,
     /// Readings (name, millimetres).
@@ -129,37 +140,59 @@ pub enum EstimateEvent {
         /// Fraction of the whole done when it started.
         fraction: f64,
     },
-    /// Finished.
+    /// Finished (and stored with its session).
     Done(Box<EstimateSummary>),
-    /// Refused or failed: the message says why and what to do.
+    /// Refused or failed: the text (a [`ServiceError`]'s) says why and what to do.
     Failed(String),
     /// Cancelled on request.
     Cancelled,
 }
 
-/// Mesh formats for export.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum ExportFormat {
-    /// Wavefront OBJ.
-    Obj,
-    /// Stanford PLY.
-    Ply,
-    /// Binary glTF.
-    Glb,
-}
-
-impl ExportFormat {
-    /// Every format, in the order the operator cycles through them.
-    pub const ALL: [ExportFormat; 3] = [ExportFormat::Glb, ExportFormat::Obj, ExportFormat::Ply];
-
-    /// File extension (also the label).
-    pub fn ext(self) -> &'static str {
-        match self {
-            ExportFormat::Obj => "obj",
-            ExportFormat::Ply => "ply",
-            ExportFormat::Glb => "glb",
-        }
-    }
+/// Why a service could not do what was asked. Every message says what
+/// happened and what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum ServiceError {
+    /// The embedded shape model could not be loaded.
+    #[error("loading the shape model: {0}")]
+    Model(#[source] PredictError),
+    /// The estimate was refused or failed.
+    #[error(transparent)]
+    Estimate(#[from] EstimateError),
+    /// The session store refused or failed.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// Writing the export failed.
+    #[error(transparent)]
+    Export(#[from] ExportError),
+    /// The session has no stored estimate.
+    #[error("session {0} has no estimate yet: estimate it first")]
+    NoEstimate(SessionId),
+    /// The stored report does not read (damaged, or from an incompatible program).
+    #[error(
+        "the stored estimate of session {session} cannot be read ({source}); \
+         estimate it again (its readings are kept)"
+    )]
+    StoredReport {
+        /// The session.
+        session: SessionId,
+        /// Why.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// The stored body was made on another template than the model's now.
+    #[error(
+        "the stored estimate of session {session} was made by {model} on another body template \
+         than the model this program uses; estimate it again to export it"
+    )]
+    OtherTemplate {
+        /// The session.
+        session: SessionId,
+        /// The model that made it.
+        model: String,
+    },
+    /// An operating system thread could not be started.
+    #[error("could not start the estimate's thread ({0}); try again")]
+    Thread(#[source] std::io::Error),
 }
 
 /// Sink for estimate progress (the runner turns it into app events).
@@ -171,24 +204,29 @@ pub trait Cancel: Send {
     fn cancel(&self);
 }
 
-/// The work the interface asks for. Implemented by the runner over the
-/// engine modules; tests use fixtures.
+/// The work the front ends ask for. Implemented over the engine modules
+/// and the session layer by [`station::StationServices`]; tests use fixtures.
 pub trait Services: Send + Sync {
-    /// Checks one reading against the others (quick: called on the runner's
+    /// Checks one reading against the others (quick: called on a blocking
     /// thread after each capture).
     fn check(&self, request: &CheckRequest) -> CheckOutcome;
 
-    /// Starts an estimate off the interface thread; progress goes to `sink`.
-    fn start_estimate(&self, job: EstimateJob, sink: ProgressSink) -> Box<dyn Cancel>;
+    /// Starts an estimate off the caller's thread; progress goes to `sink`,
+    /// ending with `Done` once the estimate is stored with its session.
+    fn start_estimate(&self, request: EstimateRequest, sink: ProgressSink) -> Box<dyn Cancel>;
 
-    /// Exports the last estimate of `session` as `format` plus the JSON
+    /// Exports the stored estimate of `session` as `format` plus the JSON
     /// report into `folder`; returns the files written.
     fn export(
         &self,
-        session: &crate::store::Session,
-        format: ExportFormat,
-        folder: &std::path::Path,
-    ) -> Result<Vec<PathBuf>, String>;
+        session: SessionId,
+        format: MeshFormat,
+        folder: &Path,
+    ) -> Result<Vec<PathBuf>, ServiceError>;
+
+    /// The stored estimate of `session` as the interface shows it, if it
+    /// has one (after a restart: without estimating again).
+    fn stored_result(&self, session: SessionId) -> Result<Option<EstimateSummary>, ServiceError>;
 }
 
 /// Shared handle to the services.

@@ -1,0 +1,526 @@
+//! The session layer: what a session is, and the one way to change one.
+//!
+//! A session is one customer's visit: it follows a measurement set, collects
+//! readings (from the tape's queue, committed by the link, or typed with the
+//! keyboard), the operator's marks (undo withdraws a reading, skip and
+//! "keep this flagged reading" are marks), and the latest estimate of the
+//! body. [`Sessions`] creates, opens and resumes sessions and makes every
+//! change to them.
+//!
+//! Why one layer for it: every front end (the kiosk interface, the line-mode
+//! station, the demo, the `session` commands) and the link change sessions,
+//! and each change must land in one SQLite transaction with everything it
+//! implies. Each change is one call of `Sessions::change` (private), which owns the
+//! transaction and records what changed as a [`Change`] (in the log today;
+//! the store chain's outbox will write its event in the same transaction
+//! there). Nothing else writes to the store: `crate::store::Store::write`
+//! is private to the crate and only called here.
+//!
+//! Layer: above the store and the link (it implements the link's
+//! [`ReadingSink`], so the link commits tape readings through it without
+//! knowing it), below the services and the front ends.
+
+use std::path::Path;
+
+use tapeshape_measure::{MeasureError, MeasurementSet};
+
+use crate::link::ReadingSink;
+use crate::store::{
+    CommitOutcome, DeviceReading, Mark, ReadingId, ReadingSource, Session, SessionId,
+    SessionStatus, Store, StoreError, StoredEstimate, StoredReading, WriteTx,
+};
+
+/// One change to a session, as the session layer records it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Change {
+    /// A session was created.
+    Created {
+        /// The new session.
+        session: SessionId,
+    },
+    /// A reading was stored (from the tape or the keyboard).
+    ReadingStored {
+        /// Its session.
+        session: SessionId,
+        /// The reading.
+        reading: ReadingId,
+        /// Tape or keyboard.
+        source: ReadingSource,
+    },
+    /// The operator withdrew a reading (undo).
+    Withdrawn {
+        /// Its session.
+        session: SessionId,
+        /// The reading.
+        reading: ReadingId,
+        /// The reading current again (the value before a retake), if any.
+        restored: Option<ReadingId>,
+    },
+    /// The operator marked a measurement (skipped, a flagged reading kept)
+    /// or cleared its mark (`None`).
+    Marked {
+        /// The session.
+        session: SessionId,
+        /// The measurement.
+        measurement: String,
+        /// The mark.
+        mark: Option<Mark>,
+    },
+    /// The session was closed (done, abandoned) or opened again.
+    StatusSet {
+        /// The session.
+        session: SessionId,
+        /// Its status before.
+        from: SessionStatus,
+        /// Its status now.
+        to: SessionStatus,
+    },
+    /// The session's estimate was stored (replacing an earlier one).
+    EstimateStored {
+        /// The session.
+        session: SessionId,
+    },
+    /// The session and everything it held were deleted.
+    Erased {
+        /// The session.
+        session: SessionId,
+    },
+}
+
+/// Why a session could not be started or opened.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// The store refused or failed.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// The session's measurement set could not be loaded.
+    #[error("loading the measurement set {set:?}: {source}")]
+    Set {
+        /// The set's name or file.
+        set: String,
+        /// Why.
+        #[source]
+        source: Box<MeasureError>,
+    },
+}
+
+/// One measurement of a session's set, as the front ends show it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeasurementInfo {
+    /// Name stored with readings.
+    pub name: String,
+    /// Human label.
+    pub label: String,
+    /// Instruction for the operator.
+    pub description: String,
+}
+
+/// What is known about a session's stored estimate when it is opened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EstimateInfo {
+    /// When it was made, ms since the Unix epoch.
+    pub made_at_ms: i64,
+    /// It was made from exactly the session's current readings (no retake,
+    /// undo or new reading since).
+    pub current: bool,
+}
+
+/// A session as opened for measuring: its set, readings and marks.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SessionView {
+    /// The session.
+    pub id: SessionId,
+    /// Customer id.
+    pub customer: String,
+    /// Measurement set name (or file).
+    pub set: String,
+    /// Notes (sex, age).
+    pub notes: Option<String>,
+    /// Its status as opened (open, unless opened only to look at it).
+    pub status: SessionStatus,
+    /// The set's measurements, in order (then any stored names the set lacks).
+    pub measurements: Vec<MeasurementInfo>,
+    /// Current readings (name, tenths of a mm), commit order.
+    pub readings: Vec<(String, u32)>,
+    /// Superseded (retaken) readings (name, tenths of a mm), commit order.
+    pub superseded: Vec<(String, u32)>,
+    /// The operator's stored marks (skipped, flagged reading kept).
+    pub marks: Vec<(String, Mark)>,
+    /// Its stored estimate, if it has one.
+    pub estimate: Option<EstimateInfo>,
+}
+
+/// An unfinished session the store holds, offered for resuming.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResumeOffer {
+    /// The session.
+    pub session: SessionId,
+    /// Its customer id.
+    pub customer: String,
+    /// Its measurement set.
+    pub set: Option<String>,
+    /// Readings it holds (current ones).
+    pub readings: u64,
+}
+
+/// The session layer's handle: every change to a session goes through it
+/// (see the module docs). Cheap to clone; clones share the store.
+#[derive(Clone, Debug)]
+pub struct Sessions {
+    store: Store,
+}
+
+/// The measurements of `set` (a built-in name or a set file).
+pub fn load_set(set: &str) -> Result<Vec<MeasurementInfo>, SessionError> {
+    let loaded = MeasurementSet::load(set).map_err(|source| SessionError::Set {
+        set: set.to_string(),
+        source: Box::new(source),
+    })?;
+    Ok(loaded
+        .definitions
+        .into_iter()
+        .map(|d| MeasurementInfo {
+            name: d.name,
+            label: d.label,
+            description: d.description,
+        })
+        .collect())
+}
+
+impl Sessions {
+    /// The session layer over `store`.
+    pub fn new(store: Store) -> Self {
+        Self { store }
+    }
+
+    /// Opens the store in `data_dir` (see [`Store::open`]).
+    pub fn open(data_dir: &Path) -> Result<Self, StoreError> {
+        Store::open(data_dir).map(Self::new)
+    }
+
+    /// The store, for reading.
+    pub fn store(&self) -> &Store {
+        &self.store
+    }
+
+    /// Makes one change: runs `f` in one transaction of the store and
+    /// records the [`Change`] it reports (`None`: nothing changed, e.g. a
+    /// retransmitted reading). Every public change below is one call of this.
+    fn change<T>(
+        &self,
+        f: impl FnOnce(&WriteTx<'_>) -> Result<(T, Option<Change>), StoreError>,
+    ) -> Result<T, StoreError> {
+        let (value, change) = self.store.write(f)?;
+        if let Some(change) = change {
+            tracing::info!(?change, "session changed");
+        }
+        Ok(value)
+    }
+
+    /// Creates an open session for `customer` (opaque text) following
+    /// `measurement_set` (not checked here: [`Sessions::start`] checks it).
+    pub fn create(
+        &self,
+        customer: &str,
+        measurement_set: Option<&str>,
+        notes: Option<&str>,
+    ) -> Result<Session, StoreError> {
+        self.change(|tx| {
+            let s = tx.create_session(customer, measurement_set, notes)?;
+            let id = s.id;
+            Ok((s, Some(Change::Created { session: id })))
+        })
+    }
+
+    /// Starts a session for `customer` following `set`, which is loaded
+    /// first: an unknown set stores nothing. Returns it ready for measuring.
+    pub fn start(
+        &self,
+        customer: &str,
+        set: &str,
+        notes: Option<&str>,
+    ) -> Result<SessionView, SessionError> {
+        let measurements = load_set(set)?;
+        let s = self.create(customer, Some(set), notes)?;
+        Ok(SessionView {
+            id: s.id,
+            customer: s.customer_id,
+            set: set.to_string(),
+            notes: s.notes,
+            status: s.status,
+            measurements,
+            readings: Vec::new(),
+            superseded: Vec::new(),
+            marks: Vec::new(),
+            estimate: None,
+        })
+    }
+
+    /// Opens session `id` for measuring with its readings, marks and
+    /// estimate, reopening it if it was closed (so readings can be added
+    /// again). A session without a set follows `quick`.
+    pub fn open_for_measuring(&self, id: SessionId) -> Result<SessionView, SessionError> {
+        self.view(id, true)
+    }
+
+    /// Opens session `id` to look at it (its stored estimate, its
+    /// readings): as [`Sessions::open_for_measuring`], but a closed session
+    /// stays closed.
+    pub fn open_for_viewing(&self, id: SessionId) -> Result<SessionView, SessionError> {
+        self.view(id, false)
+    }
+
+    fn view(&self, id: SessionId, reopen: bool) -> Result<SessionView, SessionError> {
+        let detail = self.store.open_session(id)?;
+        let set = detail
+            .session
+            .measurement_set
+            .clone()
+            .unwrap_or_else(|| "quick".to_string());
+        let mut measurements = load_set(&set)?;
+        let mut status = detail.session.status;
+        if reopen && status != SessionStatus::Open {
+            self.set_status(id, SessionStatus::Open)?;
+            status = SessionStatus::Open;
+        }
+        // Readings under names the set does not have (a numbered session, an
+        // edited set file) still show, after the set's own.
+        for r in detail.current_readings() {
+            if !measurements.iter().any(|m| m.name == r.measurement) {
+                measurements.push(MeasurementInfo {
+                    name: r.measurement.clone(),
+                    label: r.measurement.clone(),
+                    description: "A reading stored under a name this set does not have.".into(),
+                });
+            }
+        }
+        let readings: Vec<(String, u32)> = detail
+            .current_readings()
+            .map(|r| (r.measurement.clone(), r.value_tenth_mm))
+            .collect();
+        let estimate = self.store.estimate(id)?.map(|e| EstimateInfo {
+            made_at_ms: e.made_at_ms,
+            current: same_readings(&e.readings, &readings),
+        });
+        Ok(SessionView {
+            id,
+            customer: detail.session.customer_id.clone(),
+            set,
+            notes: detail.session.notes.clone(),
+            status,
+            measurements,
+            superseded: detail
+                .readings
+                .iter()
+                .filter(|r| r.superseded_by.is_some())
+                .map(|r| (r.measurement.clone(), r.value_tenth_mm))
+                .collect(),
+            readings,
+            marks: self.store.marks(id)?,
+            estimate,
+        })
+    }
+
+    /// The unfinished session to offer for resuming after a restart (the
+    /// most recently updated open one), if any.
+    pub fn resume_offer(&self) -> Result<Option<ResumeOffer>, StoreError> {
+        let Some(s) = self.store.latest_unfinished_session()? else {
+            return Ok(None);
+        };
+        let readings = self.store.open_session(s.id)?.current_readings().count() as u64;
+        Ok(Some(ResumeOffer {
+            session: s.id,
+            customer: s.customer_id,
+            set: s.measurement_set,
+            readings,
+        }))
+    }
+
+    /// Stores a value the operator captured with the keyboard (Enter: the
+    /// tape's live value) as a reading of `measurement`: a keyboard
+    /// reading, with no device or sequence number.
+    pub fn capture_keyboard(
+        &self,
+        session: SessionId,
+        measurement: &str,
+        value_tenth_mm: u32,
+    ) -> Result<StoredReading, StoreError> {
+        self.change(|tx| {
+            let r = tx.insert_keyboard_reading(session, measurement, value_tenth_mm)?;
+            let change = Change::ReadingStored {
+                session,
+                reading: r.id,
+                source: r.source,
+            };
+            Ok((r, Some(change)))
+        })
+    }
+
+    /// Withdraws reading `id` (the operator's undo): kept in the history,
+    /// no longer current; the value it had replaced by a retake is current
+    /// again and returned. Withdrawing twice changes nothing.
+    pub fn withdraw(&self, id: ReadingId) -> Result<Option<ReadingId>, StoreError> {
+        self.change(|tx| {
+            let (session, outcome) = tx.withdraw_reading(id)?;
+            Ok(match outcome {
+                None => (None, None),
+                Some(restored) => (
+                    restored,
+                    Some(Change::Withdrawn {
+                        session,
+                        reading: id,
+                        restored,
+                    }),
+                ),
+            })
+        })
+    }
+
+    /// Sets (or with `None` clears) the operator's mark on `measurement`.
+    pub fn set_mark(
+        &self,
+        session: SessionId,
+        measurement: &str,
+        mark: Option<Mark>,
+    ) -> Result<(), StoreError> {
+        self.change(|tx| {
+            tx.set_mark(session, measurement, mark)?;
+            let change = Change::Marked {
+                session,
+                measurement: measurement.to_string(),
+                mark,
+            };
+            Ok(((), Some(change)))
+        })
+    }
+
+    /// Sets the status of session `id` (closes it, or opens it again).
+    pub fn set_status(&self, id: SessionId, status: SessionStatus) -> Result<(), StoreError> {
+        self.change(|tx| {
+            let from = tx.set_status(id, status)?;
+            let change = (from != status).then_some(Change::StatusSet {
+                session: id,
+                from,
+                to: status,
+            });
+            Ok(((), change))
+        })
+    }
+
+    /// Deletes session `id` with its readings, marks and estimate.
+    pub fn delete(&self, id: SessionId) -> Result<(), StoreError> {
+        self.change(|tx| {
+            tx.delete_session(id)?;
+            Ok(((), Some(Change::Erased { session: id })))
+        })
+    }
+
+    /// Stores `estimate` as its session's estimate (replacing an earlier one).
+    pub fn store_estimate(&self, estimate: &StoredEstimate) -> Result<(), StoreError> {
+        self.change(|tx| {
+            tx.put_estimate(estimate)?;
+            let change = Change::EstimateStored {
+                session: estimate.session_id,
+            };
+            Ok(((), Some(change)))
+        })
+    }
+}
+
+impl ReadingSink for Sessions {
+    fn last_committed_seq(&self, device_id: u64, boot_id: u32) -> Result<Option<u32>, StoreError> {
+        self.store.last_committed_seq(device_id, boot_id)
+    }
+
+    fn commit_tape_reading(
+        &self,
+        session: SessionId,
+        measurement: Option<&str>,
+        reading: &DeviceReading,
+    ) -> Result<CommitOutcome, StoreError> {
+        self.change(|tx| {
+            let outcome = tx.commit_tape_reading(session, measurement, reading)?;
+            let change = match &outcome {
+                CommitOutcome::Committed(r) => Some(Change::ReadingStored {
+                    session,
+                    reading: r.id,
+                    source: r.source,
+                }),
+                CommitOutcome::Duplicate { .. } | CommitOutcome::Gap { .. } => None,
+            };
+            Ok((outcome, change))
+        })
+    }
+}
+
+/// The same readings, in any order.
+fn same_readings(a: &[(String, u32)], b: &[(String, u32)]) -> bool {
+    let mut a = a.to_vec();
+    let mut b = b.to_vec();
+    a.sort();
+    b.sort();
+    a == b
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sessions() -> (tempfile::TempDir, Sessions) {
+        let dir = tempfile::tempdir().unwrap();
+        let s = Sessions::open(dir.path()).unwrap();
+        (dir, s)
+    }
+
+    #[test]
+    fn start_refuses_an_unknown_set_before_storing_anything() {
+        let (_dir, s) = sessions();
+        let err = s.start("c-1", "no-such-set", None).unwrap_err();
+        assert!(matches!(err, SessionError::Set { .. }), "{err}");
+        assert!(err.to_string().contains("no-such-set"), "{err}");
+        assert!(s.store().list_sessions().unwrap().is_empty());
+    }
+
+    #[test]
+    fn a_started_session_has_its_set_and_notes_in_one_change() {
+        let (_dir, s) = sessions();
+        let v = s.start("c-1", "quick", Some("sex: female")).unwrap();
+        assert_eq!(v.measurements.len(), 9);
+        assert_eq!(v.measurements[0].name, "stature");
+        let header = s.store().session(v.id).unwrap();
+        assert_eq!(header.notes.as_deref(), Some("sex: female"));
+        assert_eq!(header.measurement_set.as_deref(), Some("quick"));
+    }
+
+    #[test]
+    fn an_estimate_is_current_until_the_readings_change() {
+        let (_dir, s) = sessions();
+        let v = s.start("c-2", "quick", None).unwrap();
+        s.capture_keyboard(v.id, "stature", 17_650).unwrap();
+        let chest = s.capture_keyboard(v.id, "chest", 9_820).unwrap();
+        s.store_estimate(&StoredEstimate {
+            session_id: v.id,
+            made_at_ms: 5,
+            seconds: 0.3,
+            model_source: "test".into(),
+            template_sha256: String::new(),
+            vertices: vec![[0.0, 0.0, 1.0]],
+            // Another order than the readings': still the same readings.
+            readings: vec![("chest".into(), 9_820), ("stature".into(), 17_650)],
+            report_json: "{}".into(),
+        })
+        .unwrap();
+        let opened = s.open_for_measuring(v.id).unwrap();
+        assert_eq!(
+            opened.estimate,
+            Some(EstimateInfo {
+                made_at_ms: 5,
+                current: true
+            })
+        );
+        // Undo the chest reading: the estimate is no longer of these readings.
+        s.withdraw(chest.id).unwrap();
+        let opened = s.open_for_measuring(v.id).unwrap();
+        assert_eq!(opened.estimate.map(|e| e.current), Some(false));
+    }
+}

@@ -1,0 +1,451 @@
+//! The measuring screen: the set with ✓ done, `!` flagged, `-` skipped,
+//! `~` checking and `>` the one the tape's next hold goes to; the current
+//! measurement's instruction and the live tape value. Its keys: capture,
+//! retake, skip, undo, units, estimate (and in the demo, the simulated
+//! tape). The session's state and what happens to it when readings arrive
+//! are in its `session` module.
+
+use crossterm::event::{KeyCode, KeyEvent};
+use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, List, ListItem, ListState, Paragraph, Wrap};
+use ratatui::Frame;
+
+use crate::store::Mark;
+use crate::tui::app::{action, toggled, App, Effect, Global, Level, Screen, ShowLength as _};
+use crate::tui::keys::{ch, code, hints as hints_of, Binding, Hint};
+use crate::tui::theme::{hint, hint_line, st, Role};
+
+mod session;
+
+use session::{advance, start_estimate, stored_mark};
+pub use session::{
+    on_checked, on_reading_stored, on_session_ready, Item, ItemState, SessionState, StoreRevert,
+    UndoEntry,
+};
+
+/// What the measuring screen's keys do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Action {
+    /// The tape's own hold button (listed for the help; the link stores it).
+    Hold,
+    Move,
+    Capture,
+    Retake,
+    Skip,
+    Undo,
+    Units,
+    Estimate,
+    NewCustomer,
+    SimTape {
+        slip: bool,
+    },
+}
+
+fn bindings(app: &App) -> Vec<Binding<Action>> {
+    let mut b = vec![
+        Binding::help_only(
+            &[],
+            "hold",
+            "the tape's hold button stores the reading",
+            Action::Hold,
+        ),
+        Binding::help_only(
+            &[code(KeyCode::Up), ch('k'), code(KeyCode::Down), ch('j')],
+            "up/down",
+            "choose a measurement in the list (also k / j)",
+            Action::Move,
+        ),
+        Binding::new(
+            &[code(KeyCode::Enter)],
+            "Enter",
+            "capture",
+            "store the tape's live value; on a flagged reading: keep it",
+            Action::Capture,
+        ),
+        Binding::new(
+            &[ch('r'), ch(' ')],
+            "r",
+            "retake",
+            "retake the selected measurement (also Space)",
+            Action::Retake,
+        ),
+        Binding::new(
+            &[ch('s')],
+            "s",
+            "skip",
+            "skip the current measurement",
+            Action::Skip,
+        ),
+        Binding::new(
+            &[ch('u')],
+            "u",
+            "undo",
+            "undo the last step (stored readings stay in the history)",
+            Action::Undo,
+        ),
+        Binding::new(
+            &[ch('i')],
+            "i",
+            "cm/in",
+            "show lengths in centimetres or inches",
+            Action::Units,
+        ),
+        Binding::new(
+            &[ch('e')],
+            "e",
+            "estimate",
+            "estimate the body from the readings taken",
+            Action::Estimate,
+        ),
+        Binding::help_only(
+            &[ch('n')],
+            "n",
+            "a new customer (this session stays open)",
+            Action::NewCustomer,
+        ),
+    ];
+    if app.is_demo() {
+        b.push(Binding::new(
+            &[ch('m')],
+            "m",
+            "sim tape",
+            "the simulated tape measures the current measurement",
+            Action::SimTape { slip: false },
+        ));
+        b.push(Binding::help_only(
+            &[ch('M')],
+            "M",
+            "... read off the inch scale (a unit slip)",
+            Action::SimTape { slip: true },
+        ));
+    }
+    b
+}
+
+/// The keys that work anywhere that the footer shows here.
+pub const FOOTER_GLOBALS: &[Global] = &[Global::Help];
+
+/// The measuring screen's keys, with their words.
+pub fn hints(app: &App) -> Vec<Hint> {
+    hints_of(&bindings(app))
+}
+
+/// A key on the measuring screen (also the tape's buttons: next, back, redo).
+pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
+    let Some(a) = action(&bindings(app), &key) else {
+        return;
+    };
+    let Some(s) = app.session.as_mut() else {
+        app.screen = Screen::NewCustomer;
+        return;
+    };
+    let n = s.items.len();
+    match a {
+        Action::Hold => {}
+        Action::Move if up(&key) => s.selected = (s.selected + n - 1) % n.max(1),
+        Action::Move => s.selected = (s.selected + 1) % n.max(1),
+        Action::Capture => capture(app, fx),
+        Action::Skip => {
+            let Some(c) = s.current else { return };
+            let before = s.items[c].clone();
+            let name = before.info.name.clone();
+            s.undo.push(UndoEntry {
+                what: format!("skipped {}", before.info.label),
+                reverts: vec![StoreRevert::Mark(name.clone(), stored_mark(&before))],
+                item: Some((c, before)),
+                current: s.current,
+            });
+            fx.push(Effect::SetMark {
+                session: s.id,
+                name,
+                mark: Some(Mark::Skipped),
+            });
+            s.items[c].state = ItemState::Skipped;
+            let label = s.items[c].info.label.clone();
+            advance(app);
+            if app.current_item().is_some() {
+                app.note(Level::Info, format!("Skipped {label} (u undoes)"));
+            }
+        }
+        Action::Retake => {
+            if n == 0 {
+                return;
+            }
+            let i = s.selected.min(n - 1);
+            let before = s.items[i].clone();
+            let mut reverts = Vec::new();
+            if before.state == ItemState::Skipped {
+                reverts.push(StoreRevert::Mark(
+                    before.info.name.clone(),
+                    Some(Mark::Skipped),
+                ));
+                fx.push(Effect::SetMark {
+                    session: s.id,
+                    name: before.info.name.clone(),
+                    mark: None,
+                });
+            }
+            s.undo.push(UndoEntry {
+                what: format!("retake of {}", before.info.label),
+                reverts,
+                item: Some((i, before)),
+                current: s.current,
+            });
+            if s.items[i].state == ItemState::Skipped {
+                s.items[i].state = ItemState::Todo;
+            }
+            s.current = Some(i);
+            let label = s.items[i].info.label.clone();
+            app.note(
+                Level::Info,
+                format!("Retake {label}: measure again and hold the tape"),
+            );
+        }
+        Action::Undo => match s.undo.pop() {
+            Some(entry) => {
+                for revert in entry.reverts {
+                    fx.push(match revert {
+                        StoreRevert::Withdraw(id) => Effect::WithdrawReading(id),
+                        StoreRevert::Mark(name, mark) => Effect::SetMark {
+                            session: s.id,
+                            name,
+                            mark,
+                        },
+                    });
+                }
+                if let Some((i, item)) = entry.item {
+                    s.items[i] = item;
+                }
+                s.current = entry.current;
+                if let Some(c) = s.current {
+                    s.selected = c;
+                }
+                app.note(
+                    Level::Info,
+                    format!(
+                        "Undone: {} (stored readings stay in the session's history)",
+                        entry.what
+                    ),
+                );
+            }
+            None => app.note(Level::Info, "Nothing to undo"),
+        },
+        Action::Units => app.unit = toggled(app.unit),
+        Action::Estimate => start_estimate(app, fx, false),
+        Action::NewCustomer => app.screen = Screen::NewCustomer,
+        Action::SimTape { slip } => match s.current {
+            Some(c) => fx.push(Effect::SimTape {
+                name: s.items[c].info.name.clone(),
+                slip,
+            }),
+            None => app.note(Level::Info, "Nothing left to measure"),
+        },
+    }
+}
+
+/// Is `key` the up half of an up/down binding (up, k)?
+pub(crate) fn up(key: &KeyEvent) -> bool {
+    matches!(key.code, KeyCode::Up | KeyCode::Char('k'))
+}
+
+/// Enter: keep a flagged reading, or store the tape's live value.
+fn capture(app: &mut App, fx: &mut Vec<Effect>) {
+    let Some(s) = app.session.as_mut() else {
+        return;
+    };
+    let Some(c) = s.current else {
+        app.note(
+            Level::Info,
+            "Every measurement is taken: press e to estimate",
+        );
+        return;
+    };
+    let item = &s.items[c];
+    match item.state {
+        ItemState::Flagged => {
+            let before = item.clone();
+            let name = item.info.name.clone();
+            s.undo.push(UndoEntry {
+                what: format!("kept flagged {}", item.info.label),
+                reverts: vec![StoreRevert::Mark(name.clone(), stored_mark(&before))],
+                item: Some((c, before)),
+                current: s.current,
+            });
+            fx.push(Effect::SetMark {
+                session: s.id,
+                name,
+                mark: Some(Mark::KeptFlagged),
+            });
+            let item = &mut s.items[c];
+            item.state = ItemState::Done;
+            item.kept_flagged = true;
+            let label = item.info.label.clone();
+            advance(app);
+            if app.notice.is_none() || app.current_item().is_some() {
+                app.note(Level::Warn, format!("Kept the flagged {label} reading"));
+            }
+        }
+        ItemState::Checking => app.note(Level::Info, "Checking the reading..."),
+        _ => match app.device.live {
+            Some(live) if app.device.connected() && live.value_tenth_mm > 0 => {
+                fx.push(Effect::CaptureLive {
+                    session: s.id,
+                    name: item.info.name.clone(),
+                    value_tenth_mm: live.value_tenth_mm,
+                    unit_shown: live.unit_shown,
+                });
+            }
+            _ => app.note(
+                Level::Warn,
+                "No tape value to capture: pull the tape out (or press its hold button)",
+            ),
+        },
+    }
+}
+
+fn mark(state: ItemState) -> &'static str {
+    match state {
+        ItemState::Todo => " ",
+        ItemState::Checking => "~",
+        ItemState::Done => "✓",
+        ItemState::Flagged => "!",
+        ItemState::Skipped => "-",
+    }
+}
+
+/// Draws the measuring screen into `area`.
+pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
+    let m = app.mono;
+    let Some(s) = &app.session else {
+        frame.render_widget(Paragraph::new("No session"), area);
+        return;
+    };
+    let [list_area, detail] =
+        Layout::horizontal([Constraint::Length(38), Constraint::Min(20)]).areas(area);
+    let items: Vec<ListItem> = s
+        .items
+        .iter()
+        .enumerate()
+        .map(|(k, it)| {
+            let cur = if s.current == Some(k) { ">" } else { " " };
+            let value = it.value.map(|v| app.unit.format(v)).unwrap_or_default();
+            let role = match it.state {
+                ItemState::Done => Role::Ok,
+                ItemState::Flagged => Role::Warn,
+                ItemState::Skipped => Role::Dim,
+                _ => Role::Big,
+            };
+            let label: String = it.info.label.chars().take(22).collect();
+            ListItem::new(Line::from(vec![
+                Span::raw(cur),
+                Span::styled(format!("{} ", mark(it.state)), st(m, role)),
+                Span::raw(format!("{label:<22}")),
+                Span::styled(format!("{value:>10}"), st(m, role)),
+            ]))
+        })
+        .collect();
+    let mut state = ListState::default().with_selected(Some(s.selected));
+    frame.render_stateful_widget(
+        List::new(items)
+            .block(Block::bordered().title(format!(
+                " {} of {} taken ",
+                s.count(ItemState::Done) + s.count(ItemState::Flagged),
+                s.items.len()
+            )))
+            .highlight_style(st(m, Role::Focus)),
+        list_area,
+        &mut state,
+    );
+
+    let mut lines: Vec<Line> = Vec::new();
+    let title;
+    match s.current.and_then(|c| s.items.get(c)) {
+        Some(it) => {
+            title = format!(" Now: {} ", it.info.label);
+            lines.push(Line::styled(it.info.description.clone(), st(m, Role::Big)));
+            lines.push(Line::raw(""));
+            let live = match app.device.live {
+                Some(l) if app.device.connected() => app.unit.format(l.value_tenth_mm),
+                _ => "--".to_string(),
+            };
+            lines.push(Line::from(vec![
+                Span::styled("Tape    ", st(m, Role::Dim)),
+                Span::styled(live, st(m, Role::Big)),
+            ]));
+            if let Some(v) = it.value {
+                let mut spans = vec![
+                    Span::styled("Stored  ", st(m, Role::Dim)),
+                    Span::raw(app.unit.format(v)),
+                ];
+                if !it.previous.is_empty() {
+                    let prev: Vec<String> =
+                        it.previous.iter().map(|p| app.unit.format(*p)).collect();
+                    spans.push(Span::styled(
+                        format!("  earlier {}", prev.join(", ")),
+                        st(m, Role::Dim),
+                    ));
+                }
+                lines.push(Line::from(spans));
+            }
+            lines.push(Line::raw(""));
+            match it.state {
+                ItemState::Flagged => {
+                    for msg in it.flag.iter().chain(it.unit_slip.iter()) {
+                        lines.push(Line::styled(format!("! {msg}"), st(m, Role::Warn)));
+                    }
+                    lines.push(Line::styled(
+                        "Measure again (hold the tape), or Enter to keep this value",
+                        st(m, Role::Bad),
+                    ));
+                }
+                ItemState::Checking => {
+                    lines.push(Line::styled("Checking the reading...", st(m, Role::Dim)))
+                }
+                _ if it.value.is_some() => lines.push(Line::styled(
+                    "Retake: hold the tape to replace the stored value",
+                    st(m, Role::Dim),
+                )),
+                _ => lines.push(Line::styled(
+                    "Hold the tape's button to capture (or Enter)",
+                    st(m, Role::Dim),
+                )),
+            }
+        }
+        None => {
+            title = " Done ".to_string();
+            lines.push(Line::styled(
+                "Every measurement is taken or skipped.",
+                st(m, Role::Big),
+            ));
+            lines.push(Line::raw(""));
+            lines.push(hint_line(m, &[hint("e", "estimate the body")]));
+            lines.push(hint_line(m, &[hint("r", "retake the selected one")]));
+        }
+    }
+    // Flags of other measurements, so none is forgotten.
+    let other_flags: Vec<&str> = s
+        .items
+        .iter()
+        .enumerate()
+        .filter(|(k, it)| it.state == ItemState::Flagged && Some(*k) != s.current)
+        .map(|(_, it)| it.info.label.as_str())
+        .collect();
+    if !other_flags.is_empty() {
+        lines.push(Line::raw(""));
+        lines.push(Line::styled(
+            format!("Flagged: {}", other_flags.join(", ")),
+            st(m, Role::Warn),
+        ));
+    }
+    let skipped = s.count(ItemState::Skipped);
+    if skipped > 0 {
+        lines.push(Line::styled(format!("{skipped} skipped"), st(m, Role::Dim)));
+    }
+    frame.render_widget(
+        Paragraph::new(lines)
+            .wrap(Wrap { trim: true })
+            .block(Block::bordered().title(title)),
+        detail,
+    );
+}

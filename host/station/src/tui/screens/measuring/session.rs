@@ -1,0 +1,459 @@
+//! The measuring screen's state: the session being measured, item by item,
+//! and what happens to it when a session is opened, a reading is stored and
+//! a check answers.
+
+use tapeshape_engine::predict::Unit;
+use tapeshape_protocol::UnitShown;
+
+use crate::services::{CheckOutcome, CheckRequest, EstimateRequest};
+use crate::session::{MeasurementInfo, SessionView};
+use crate::store::{Mark, ReadingId, SessionId, SessionStatus, StoredReading};
+use crate::tui::app::{AfterOpen, App, Effect, Level, Screen, ShowLength as _};
+use crate::tui::screens::estimating::EstimateState;
+use crate::tui::screens::result::ResultScreen;
+
+/// State of one measurement in the session.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ItemState {
+    /// Not taken yet.
+    Todo,
+    /// Taken; the check is running.
+    Checking,
+    /// Taken and accepted.
+    Done,
+    /// Taken, but the check found it far off: measure again or keep (Enter).
+    Flagged,
+    /// Skipped by the operator.
+    Skipped,
+}
+
+/// One measurement of the session.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Item {
+    /// Set entry.
+    pub info: MeasurementInfo,
+    /// State.
+    pub state: ItemState,
+    /// The reading in use (tenths of a mm), if any.
+    pub value: Option<u32>,
+    /// Earlier readings of this measurement (retakes), oldest first.
+    pub previous: Vec<u32>,
+    /// The check's message (flag), if any.
+    pub flag: Option<String>,
+    /// The check's unit slip message, if any.
+    pub unit_slip: Option<String>,
+    /// The operator kept a flagged reading.
+    pub kept_flagged: bool,
+}
+
+/// What undoing a step changes in the store, so that a resumed session
+/// looks as the operator left it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StoreRevert {
+    /// Withdraw this reading (it stays in the history).
+    Withdraw(ReadingId),
+    /// Set this measurement's mark back to this.
+    Mark(String, Option<Mark>),
+}
+
+/// An operator step that `u` undoes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UndoEntry {
+    /// What it was, in words (for the notice).
+    pub what: String,
+    /// What undoing it changes in the store.
+    pub reverts: Vec<StoreRevert>,
+    /// Item index and its state before the step.
+    pub item: Option<(usize, Item)>,
+    /// The current measurement before the step.
+    pub current: Option<usize>,
+}
+
+/// The session being measured.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SessionState {
+    /// Session id.
+    pub id: SessionId,
+    /// Customer id.
+    pub customer: String,
+    /// Measurement set.
+    pub set: String,
+    /// Notes (sex, age).
+    pub notes: Option<String>,
+    /// The measurements.
+    pub items: Vec<Item>,
+    /// The one the tape's next reading goes to.
+    pub current: Option<usize>,
+    /// Cursor in the list.
+    pub selected: usize,
+    /// Undo stack.
+    pub undo: Vec<UndoEntry>,
+    /// The session is closed (marked done after an export, or opened only
+    /// to look at it); going back to measuring opens it again, or the store
+    /// would refuse new readings.
+    pub marked_done: bool,
+}
+
+impl SessionState {
+    /// Readings used for an estimate (name, millimetres): done and flagged
+    /// ones, not skipped or undone.
+    pub fn accepted(&self) -> Vec<(String, f64)> {
+        self.items
+            .iter()
+            .filter(|i| matches!(i.state, ItemState::Done | ItemState::Flagged))
+            .filter_map(|i| i.value.map(|v| (i.info.name.clone(), f64::from(v) / 10.0)))
+            .collect()
+    }
+
+    /// Count of items in `state`.
+    pub fn count(&self, state: ItemState) -> usize {
+        self.items.iter().filter(|i| i.state == state).count()
+    }
+
+    pub(super) fn index_of(&self, name: &str) -> Option<usize> {
+        self.items.iter().position(|i| i.info.name == name)
+    }
+
+    /// The next measurement still to take after `from` (wrapping), if any.
+    pub(super) fn next_todo(&self, from: Option<usize>) -> Option<usize> {
+        let n = self.items.len();
+        let start = from.map_or(0, |i| i + 1);
+        (0..n)
+            .map(|k| (start + k) % n)
+            .find(|&i| self.items[i].state == ItemState::Todo)
+    }
+}
+
+/// The mark the store keeps for an item in this state, if any.
+pub(super) fn stored_mark(item: &Item) -> Option<Mark> {
+    if item.state == ItemState::Skipped {
+        Some(Mark::Skipped)
+    } else if item.kept_flagged {
+        Some(Mark::KeptFlagged)
+    } else {
+        None
+    }
+}
+
+/// The unit the tape showed, as the check takes it.
+fn tape_unit(shown: UnitShown) -> Unit {
+    match shown {
+        UnitShown::Metric => Unit::Cm,
+        UnitShown::Imperial => Unit::In,
+    }
+}
+
+/// A session was created or opened: it becomes the one measured.
+pub fn on_session_ready(app: &mut App, view: SessionView, fx: &mut Vec<Effect>) {
+    let mut items: Vec<Item> = view
+        .measurements
+        .into_iter()
+        .map(|info| Item {
+            info,
+            state: ItemState::Todo,
+            value: None,
+            previous: Vec::new(),
+            flag: None,
+            unit_slip: None,
+            kept_flagged: false,
+        })
+        .collect();
+    for (name, v) in &view.superseded {
+        if let Some(i) = items.iter_mut().find(|i| &i.info.name == name) {
+            i.previous.push(*v);
+        }
+    }
+    let mut unknown = Vec::new();
+    for (name, v) in &view.readings {
+        match items.iter_mut().find(|i| &i.info.name == name) {
+            Some(i) => {
+                i.value = Some(*v);
+                i.state = ItemState::Done;
+            }
+            None => unknown.push(name.clone()),
+        }
+    }
+    for (name, mark) in &view.marks {
+        if let Some(i) = items.iter_mut().find(|i| &i.info.name == name) {
+            match mark {
+                Mark::Skipped if i.value.is_none() => i.state = ItemState::Skipped,
+                Mark::KeptFlagged if i.value.is_some() => i.kept_flagged = true,
+                _ => {}
+            }
+        }
+    }
+    let resumed = view.readings.len();
+    let mut s = SessionState {
+        id: view.id,
+        customer: view.customer,
+        set: view.set,
+        notes: view.notes,
+        items,
+        current: None,
+        selected: 0,
+        undo: Vec::new(),
+        // A closed session (opened to look at it) opens again when the
+        // operator goes back to measuring it.
+        marked_done: view.status != SessionStatus::Open,
+    };
+    s.current = s.next_todo(None);
+    s.selected = s.current.unwrap_or(0);
+    let id = s.id;
+    app.session = Some(s);
+    app.result = ResultScreen {
+        format: app.result.format,
+        ..ResultScreen::default()
+    };
+    app.estimate = EstimateState::default();
+    app.form = app.form.next_customer();
+    let after = app.after_open.take().unwrap_or(AfterOpen::Measure);
+    app.screen = Screen::Measuring;
+    if resumed > 0 {
+        app.note(
+            Level::Info,
+            format!(
+                "Session {id} opened with its {resumed} stored readings{}",
+                if unknown.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        " ({} not in its set: {})",
+                        unknown.len(),
+                        unknown.join(", ")
+                    )
+                }
+            ),
+        );
+    } else {
+        app.notice = None;
+    }
+    let stored_current = view.estimate.is_some_and(|e| e.current);
+    match after {
+        AfterOpen::Measure => recheck_resumed(app, fx),
+        AfterOpen::Estimate => start_estimate(app, fx, false),
+        // The stored body is of these very readings: export it as it is.
+        AfterOpen::Export if stored_current => {
+            app.after_open = Some(AfterOpen::Export);
+            fx.push(Effect::LoadResult(id));
+        }
+        AfterOpen::Export => start_estimate(app, fx, true),
+        AfterOpen::ShowResult if view.estimate.is_some() => {
+            app.result.stored = view.estimate;
+            fx.push(Effect::LoadResult(id));
+        }
+        AfterOpen::ShowResult => app.note(
+            Level::Info,
+            format!("Session {id} has no stored estimate: press e to estimate it"),
+        ),
+    }
+}
+
+/// A reading was stored (by the link from the tape, or typed with the
+/// keyboard): it goes to its measurement, is checked, and can be undone.
+pub fn on_reading_stored(
+    app: &mut App,
+    reading: StoredReading,
+    unit_shown: UnitShown,
+    fx: &mut Vec<Effect>,
+) {
+    let Some(s) = app.session.as_mut() else {
+        return;
+    };
+    if reading.session_id != s.id {
+        return;
+    }
+    let v = reading.value_tenth_mm;
+    let Some(i) = s.index_of(&reading.measurement) else {
+        let text = format!(
+            "Stored {} as {} (not in this set)",
+            app.unit.format(v),
+            reading.measurement
+        );
+        app.note(Level::Warn, text);
+        return;
+    };
+    let before = s.items[i].clone();
+    let mut reverts = vec![StoreRevert::Withdraw(reading.id)];
+    if let Some(mark) = stored_mark(&before) {
+        // A new reading replaces a skip or a kept flag.
+        reverts.push(StoreRevert::Mark(before.info.name.clone(), Some(mark)));
+        fx.push(Effect::SetMark {
+            session: s.id,
+            name: before.info.name.clone(),
+            mark: None,
+        });
+    }
+    s.undo.push(UndoEntry {
+        what: format!("reading of {}", before.info.label),
+        reverts,
+        item: Some((i, before)),
+        current: s.current,
+    });
+    let item = &mut s.items[i];
+    if let Some(old) = item.value {
+        item.previous.push(old);
+    }
+    item.value = Some(v);
+    item.state = ItemState::Checking;
+    item.flag = None;
+    item.unit_slip = None;
+    item.kept_flagged = false;
+    let others = other_values(&s.items, i, |it| {
+        matches!(it.state, ItemState::Done | ItemState::Flagged)
+    });
+    fx.push(Effect::Check(CheckRequest {
+        set: s.set.clone(),
+        name: reading.measurement.clone(),
+        value_mm: f64::from(v) / 10.0,
+        others,
+        tape_unit: tape_unit(unit_shown),
+    }));
+    let label = s.items[i].info.label.clone();
+    let was = s.items[i].previous.last().copied();
+    let shown = match unit_shown {
+        UnitShown::Metric => "",
+        UnitShown::Imperial => " (tape showing inches)",
+    };
+    let retake = match was {
+        Some(w) => format!(" (retake; was {})", app.unit.format(w)),
+        None => String::new(),
+    };
+    let text = format!("Stored {label} = {}{retake}{shown}", app.unit.format(v));
+    app.note(Level::Info, text);
+}
+
+/// A reading flagged before a restart, and that the operator had not
+/// answered (kept with Enter, or retaken), must come back flagged: the
+/// store keeps only answers (`Mark::KeptFlagged`), so every resumed reading
+/// without that mark is checked again against the other resumed readings.
+/// The check depends only on the values, so a reading that passed passes
+/// again; the tape's unit at capture is not stored, so a unit slip is looked
+/// for as on a metric tape.
+fn recheck_resumed(app: &mut App, fx: &mut Vec<Effect>) {
+    let Some(s) = app.session.as_mut() else {
+        return;
+    };
+    let taken: Vec<(usize, u32)> = s
+        .items
+        .iter()
+        .enumerate()
+        .filter(|(_, it)| it.state == ItemState::Done && !it.kept_flagged)
+        .filter_map(|(k, it)| it.value.map(|v| (k, v)))
+        .collect();
+    for &(i, v) in &taken {
+        let others = other_values(&s.items, i, |_| true);
+        fx.push(Effect::Check(CheckRequest {
+            set: s.set.clone(),
+            name: s.items[i].info.name.clone(),
+            value_mm: f64::from(v) / 10.0,
+            others,
+            tape_unit: Unit::Cm,
+        }));
+    }
+    for &(i, _) in &taken {
+        s.items[i].state = ItemState::Checking;
+    }
+}
+
+/// The values (mm) of the items other than `i` that have one and pass
+/// `include`: what a reading is checked against.
+fn other_values(items: &[Item], i: usize, include: impl Fn(&Item) -> bool) -> Vec<(String, f64)> {
+    items
+        .iter()
+        .enumerate()
+        .filter(|(k, it)| *k != i && include(it))
+        .filter_map(|(_, it)| {
+            it.value
+                .map(|v| (it.info.name.clone(), f64::from(v) / 10.0))
+        })
+        .collect()
+}
+
+/// The check of a reading answered.
+pub fn on_checked(app: &mut App, name: &str, value_tenth_mm: u32, outcome: CheckOutcome) {
+    let Some(s) = app.session.as_mut() else {
+        return;
+    };
+    let Some(i) = s.index_of(name) else { return };
+    let item = &mut s.items[i];
+    if item.value != Some(value_tenth_mm) || item.state != ItemState::Checking {
+        return; // retaken or undone meanwhile
+    }
+    item.flag = outcome.flag;
+    item.unit_slip = outcome.unit_slip;
+    if item.flag.is_some() || item.unit_slip.is_some() {
+        item.state = ItemState::Flagged;
+        s.current = Some(i);
+        s.selected = i;
+        let label = item.info.label.clone();
+        let what = if item.flag.is_some() {
+            "far off."
+        } else {
+            "unit slip?"
+        };
+        app.note(
+            Level::Warn,
+            format!("{label}: {what} Measure again, or Enter to keep it"),
+        );
+    } else {
+        item.state = ItemState::Done;
+        let note = outcome.note;
+        if s.current == Some(i) {
+            advance(app);
+        }
+        if let Some(n) = note {
+            app.note(Level::Warn, n);
+        }
+    }
+}
+
+/// Moves the current measurement to the next one still to take.
+pub(super) fn advance(app: &mut App) {
+    let Some(s) = app.session.as_mut() else {
+        return;
+    };
+    s.current = s.next_todo(s.current);
+    if let Some(c) = s.current {
+        s.selected = c;
+    } else {
+        let skipped = s.count(ItemState::Skipped);
+        let flagged = s.count(ItemState::Flagged);
+        app.note(
+            Level::Info,
+            format!(
+                "All measurements taken{}: press e to estimate the body",
+                match (skipped, flagged) {
+                    (0, 0) => String::new(),
+                    _ => format!(" ({skipped} skipped, {flagged} flagged)"),
+                }
+            ),
+        );
+    }
+}
+
+/// Starts an estimate of the accepted readings (then an export, if asked).
+pub(super) fn start_estimate(app: &mut App, fx: &mut Vec<Effect>, then_export: bool) {
+    let Some(s) = &app.session else { return };
+    let readings = s.accepted();
+    if readings.is_empty() {
+        app.note(
+            Level::Warn,
+            "No readings yet: take at least one measurement before estimating",
+        );
+        app.screen = Screen::Measuring;
+        return;
+    }
+    if s.items.iter().any(|i| i.state == ItemState::Checking) {
+        app.note(Level::Info, "A reading is still being checked; try again");
+        return;
+    }
+    let session = s.id;
+    app.estimate = EstimateState {
+        running: true,
+        ..EstimateState::default()
+    };
+    app.after_open = then_export.then_some(AfterOpen::Export);
+    app.screen = Screen::Estimating;
+    app.notice = None;
+    fx.push(Effect::StartEstimate(EstimateRequest { session, readings }));
+}

@@ -1,0 +1,118 @@
+//! What the commands print, with the real binary: a closed pipe ends a
+//! command quietly (`tapeshape predict --list | head`), and a name one
+//! command prints is one the other accepts (`measure --json` -> `predict`).
+
+mod common;
+
+use std::path::Path;
+use std::process::Stdio;
+
+/// Runs `tapeshape args` with its stdout a pipe whose reading end is
+/// already closed (what `| head` leaves once it has its lines): every write
+/// fails with EPIPE.
+fn with_stdout_closed(data: &Path, args: &[&str]) -> std::process::Output {
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    common::tapeshape(data, args)
+        .stdout(Stdio::from(writer))
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn a_closed_stdout_ends_a_command_quietly() {
+    let tmp = tempfile::tempdir().unwrap();
+    for args in [
+        &["predict", "--list"][..],
+        &["measure", "--describe", "--set", "paper34"][..],
+        &["sessions"][..],
+        &["--help"][..],
+    ] {
+        let out = with_stdout_closed(tmp.path(), args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(!stderr.contains("Broken pipe"), "{args:?}: {stderr}");
+        assert!(out.status.success(), "{args:?}: {:?} {stderr}", out.status);
+    }
+    // The same command with a reader prints its list (so the check above
+    // did exercise a write).
+    let out = common::tapeshape(tmp.path(), &["predict", "--list"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("stature"));
+}
+
+/// The template body as an OBJ (metres, station frame).
+fn template_obj(dir: &Path) -> std::path::PathBuf {
+    let model = tapeshape_body::BodyModel::shared().unwrap();
+    let path = dir.join("template.obj");
+    tapeshape_mesh::io::write_obj(&model.template(), &path).unwrap();
+    path
+}
+
+/// Every measurement `tapeshape measure --json` prints for a set the default
+/// model carries is one `tapeshape predict` takes (the whole set predicts);
+/// each group total is marked derived, and `predict` refuses it naming the
+/// members to give instead.
+#[test]
+fn what_measure_prints_predict_takes_and_totals_are_marked_derived() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mesh = template_obj(tmp.path());
+    let mut groups_seen = 0;
+    for set in ["quick", "ansur", "paper34"] {
+        let out = common::tapeshape(tmp.path(), &["measure", "--set", set, "--json"])
+            .arg(&mesh)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let mut readings = serde_json::Map::new();
+        readings.insert("unit".into(), "mm".into());
+        for m in doc["measurements"].as_array().unwrap() {
+            let name = m["name"].as_str().unwrap();
+            readings.insert(name.into(), m["value_mm"].clone());
+        }
+        let file = tmp.path().join(format!("{set}.json"));
+        std::fs::write(&file, serde_json::to_vec(&readings).unwrap()).unwrap();
+        let out = common::tapeshape(tmp.path(), &["predict", "--measurements"])
+            .arg(&file)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{set}: predict refused what measure printed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        for g in doc["groups"].as_array().unwrap() {
+            groups_seen += 1;
+            let name = g["name"].as_str().unwrap();
+            assert_eq!(g["derived"], "sum", "{g}");
+            let members: Vec<&str> = g["sum_of"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|m| m.as_str().unwrap())
+                .collect();
+            assert!(members.len() >= 2, "{g}");
+            // The total is the sum of its members as printed.
+            let sum: f64 = members.iter().map(|m| readings[*m].as_f64().unwrap()).sum();
+            assert!((g["value_mm"].as_f64().unwrap() - sum).abs() < 1e-6, "{g}");
+            let out = common::tapeshape(tmp.path(), &["predict", "--measure"])
+                .arg(format!("{name}=380mm"))
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(!out.status.success(), "{name} was accepted");
+            assert!(err.contains("derived total"), "{err}");
+            for m in &members {
+                assert!(err.contains(m), "{name}: {err}");
+            }
+        }
+    }
+    assert_eq!(groups_seen, 4, "paper34's knee and arm loops, both sides");
+}
