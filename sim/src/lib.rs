@@ -20,8 +20,10 @@
 //!   ptys.
 //! * [`qemu`]: the real `mps2-an386` firmware under QEMU, with the same two ptys.
 //!
-//! Room is left for simulated customers and operators (a later issue) as modules of their own
-//! on top of [`tape`].
+//! The simulated customers (ANSUR II test-split people read by the tape) and the simulated
+//! operator of `tapeshape demo` are the station's (`host/station`, its demo command), built on
+//! [`tape`] and [`harness`]; the end-to-end tests' customers with known bodies are in
+//! `tests/tests/known_bodies`.
 
 pub mod faults;
 pub mod harness;

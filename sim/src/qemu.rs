@@ -75,6 +75,27 @@ pub fn qemu_installed() -> bool {
         .unwrap_or(false)
 }
 
+/// Whether a test that needs QEMU can run here, and what to say when it
+/// cannot. With `qemu-system-arm` installed: `true`. Without it: a failure
+/// (panic) when the `CI` environment variable is set, because CI must install
+/// it (`.ci/run` does); otherwise a loud `SKIPPED` line on stderr and `false`,
+/// so that a developer without QEMU can still run the rest of the tests.
+pub fn available_or_skip(test: &str) -> bool {
+    if qemu_installed() {
+        return true;
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "{test}: qemu-system-arm is not installed, and CI is set: CI must install it \
+         (apt-get install -y qemu-system-arm)"
+    );
+    eprintln!(
+        "\n*** SKIPPED {test}: qemu-system-arm is not installed \
+         (apt-get install -y qemu-system-arm) ***\n"
+    );
+    false
+}
+
 /// Builds the release firmware (incremental: quick when nothing changed).
 pub fn build_firmware() -> Result<PathBuf, QemuError> {
     let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
@@ -253,14 +274,7 @@ mod tests {
     /// guest resumed (the firmware sends its hello at boot; a tape line gives it more to say).
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn board_boots_and_talks_on_the_host_uart() {
-        if !qemu_installed() {
-            assert!(
-                std::env::var_os("CI").is_none(),
-                "qemu-system-arm is required in CI (apt-get install -y qemu-system-arm)"
-            );
-            eprintln!(
-                "SKIPPED board_boots_and_talks_on_the_host_uart: qemu-system-arm not installed"
-            );
+        if !available_or_skip("board_boots_and_talks_on_the_host_uart") {
             return;
         }
         let board = QemuBoard::launch(0x1234_5678).unwrap();

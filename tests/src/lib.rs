@@ -79,24 +79,6 @@ impl DeviceUnderTest {
     }
 }
 
-/// Whether the QEMU test can run here. Without `qemu-system-arm`: a failure when the `CI`
-/// environment variable is set (CI must install it), otherwise a loud SKIPPED line.
-pub fn qemu_available_or_skip(test: &str) -> bool {
-    if tapeshape_sim::qemu::qemu_installed() {
-        return true;
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "{test}: qemu-system-arm is not installed, and CI is set: CI must install it \
-         (apt-get install -y qemu-system-arm)"
-    );
-    eprintln!(
-        "\n*** SKIPPED {test}: qemu-system-arm is not installed \
-         (apt-get install -y qemu-system-arm) ***\n"
-    );
-    false
-}
-
 /// Plays a tape timeline into a tty path on a task of its own. Confirmations are reported on
 /// the returned channel as they are written.
 pub fn spawn_tape(

