@@ -34,7 +34,7 @@ use tapeshape::cli::station::{plan, record, RecordOptions};
 use tapeshape::estimate::{export, start_estimate, MeshFormat, Reading, SessionInfo};
 use tapeshape::store::Store;
 use tapeshape_engine::dataset::{generate_population, Dataset, PopulationSettings};
-use tapeshape_engine::predict::{Engine, PredictSettings};
+use tapeshape_engine::predict::{Engine, PredictOptions};
 use tapeshape_mesh::Vec3;
 use tapeshape_sim::harness::{FirmwareHarness, HarnessConfig};
 use tapeshape_sim::pty::TtyStream;
@@ -219,7 +219,7 @@ fn estimate_export_and_compare(
         .iter()
         .map(|(n, v)| Reading::new(n.clone(), *v as f64 / 10_000.0))
         .collect();
-    let job = start_estimate(engine(), &readings, &PredictSettings::default()).unwrap();
+    let job = start_estimate(engine(), &readings, &PredictOptions::default()).unwrap();
     let mut last = 0.0;
     while !job.is_finished() {
         if let Some(p) = job.next_progress(Duration::from_millis(50)) {
@@ -463,7 +463,7 @@ fn measure_vertex_distances_on_held_out_bodies() {
                         tolerance,
                     })
                     .collect();
-                let est = start_estimate(engine(), &readings, &PredictSettings::default())
+                let est = start_estimate(engine(), &readings, &PredictOptions::default())
                     .unwrap()
                     .wait();
                 dist[k].push(match est {

@@ -20,7 +20,7 @@ use ratatui::Frame;
 use crate::tui::app::{
     App, Autopilot, Connection, FormField, ItemState, Level, Screen, BUILTIN_SET_CHOICES,
 };
-use crate::tui::services::Stage;
+use crate::tui::services::{stage_label, STAGES};
 
 /// Roles of text, mapped to colours or (monochrome) to modifiers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -615,13 +615,13 @@ fn draw_measuring(app: &App, frame: &mut Frame, area: Rect) {
 fn draw_estimating(app: &App, frame: &mut Frame, area: Rect) {
     let e = &app.estimate;
     let [stages, gauge, msg] = Layout::vertical([
-        Constraint::Length(Stage::ALL.len() as u16 + 2),
+        Constraint::Length(STAGES.len() as u16 + 2),
         Constraint::Length(3),
         Constraint::Min(3),
     ])
     .areas(area);
     let current = e.stages.last().copied();
-    let lines: Vec<Line> = Stage::ALL
+    let lines: Vec<Line> = STAGES
         .iter()
         .map(|s| {
             let (m, role) = if !e.stages.contains(s) {
@@ -633,7 +633,7 @@ fn draw_estimating(app: &App, frame: &mut Frame, area: Rect) {
             } else {
                 ("✓ ", Role::Ok)
             };
-            Line::styled(format!(" {m}{}", s.label()), st(app, role))
+            Line::styled(format!(" {m}{}", stage_label(*s)), st(app, role))
         })
         .collect();
     frame.render_widget(

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use tapeshape_engine::predict::{Engine, Estimate, PredictSettings, PredictStage, Unit};
+use tapeshape_engine::predict::{Engine, Estimate, PredictOptions, Unit};
 use tapeshape_mesh::Vec3;
 
 use crate::check::{check_reading_with_tolerance, Flag};
@@ -141,7 +141,7 @@ impl Services for StationServices {
             })
             .collect();
         let t0 = Instant::now();
-        let running = match estimate::start_estimate(engine, &readings, &PredictSettings::default())
+        let running = match estimate::start_estimate(engine, &readings, &PredictOptions::default())
         {
             Ok(j) => j,
             Err(e) => {
@@ -159,14 +159,14 @@ impl Services for StationServices {
                 loop {
                     match running.next_progress(Duration::from_millis(50)) {
                         Some(p) => sink(EstimateEvent::Stage {
-                            stage: stage_of(p.stage),
+                            stage: p.stage,
                             fraction: p.fraction,
                         }),
                         None if running.is_finished() => {
                             // Reports sent just before the end.
                             for p in running.progress() {
                                 sink(EstimateEvent::Stage {
-                                    stage: stage_of(p.stage),
+                                    stage: p.stage,
                                     fraction: p.fraction,
                                 });
                             }
@@ -228,15 +228,6 @@ impl Services for StationServices {
             ExportFormat::Glb => estimate::MeshFormat::Glb,
         };
         estimate::export(&est, &info, folder, &[format]).map_err(|e| e.to_string())
-    }
-}
-
-/// The interface's stage for the engine's.
-fn stage_of(s: PredictStage) -> Stage {
-    match s {
-        PredictStage::Start => Stage::Start,
-        PredictStage::Step1 { .. } => Stage::Step1,
-        PredictStage::Step2 { .. } | PredictStage::Done => Stage::Step2,
     }
 }
 
