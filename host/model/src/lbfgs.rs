@@ -461,7 +461,10 @@ impl<'a> Run<'a> {
             };
             iterations += 1;
             // New correction pair s = x_new - x, y = g_new - g, kept only if
-            // s . y > 1e-10 y . y (else it would break positive definiteness).
+            // s . y > eps y . y (L-BFGS-B's test: the pair must add positive
+            // curvature; s . y / y . y is the inverse curvature along s, which
+            // is tiny but real on stiff energies, so the threshold is
+            // machine epsilon, not a fixed tolerance).
             let (mut sy, mut yy) = (0.0, 0.0);
             for j in 0..n {
                 let (sj, yj) = (self.x_new[j] - self.x[j], self.g_new[j] - self.g[j]);
@@ -470,7 +473,7 @@ impl<'a> Run<'a> {
                 sy += sj * yj;
                 yy += yj * yj;
             }
-            if sy > 1e-10 * yy && sy > 0.0 {
+            if sy > f64::EPSILON * yy && sy > 0.0 {
                 let m = self.rho.len();
                 let k = if self.len < m {
                     self.len += 1;
@@ -781,6 +784,32 @@ mod tests {
                 minimise(&quad(2.0), vec![0.0; 50], &solver(ls, StopRule::default())).unwrap();
             let err = x.iter().map(|v| (v - 1.0).abs()).fold(0.0, f64::max);
             assert!(err < 1e-4, "{ls:?}: max error {err}, {info:?}");
+        }
+    }
+
+    /// The energy's scale must not matter: the conditioned quadratic times
+    /// 1e12 (curvature 1e12 to 1e14, as step 1's energies in mm^4 have)
+    /// takes the same iterations as at scale 1. A curvature-pair test with
+    /// a fixed tolerance (`s . y > 1e-10 y . y`, as this solver had) drops
+    /// every pair there and degrades to steepest descent.
+    #[test]
+    fn the_energys_scale_does_not_change_the_iterations() {
+        for ls in BOTH {
+            let run = |scale: f64| {
+                let q = Quad(quad(2.0).0.iter().map(|c| c * scale).collect());
+                minimise(&q, vec![0.0; 50], &solver(ls, StopRule::default()))
+                    .unwrap()
+                    .1
+            };
+            let (unit, stiff) = (run(1.0), run(1e12));
+            assert!(
+                stiff.iterations <= unit.iterations + 2,
+                "{ls:?}: scale 1e12 {stiff:?} vs scale 1 {unit:?}"
+            );
+            assert!(
+                stiff.cost_end < 1e-9 * stiff.cost_start,
+                "{ls:?}: {stiff:?}"
+            );
         }
     }
 
