@@ -8,9 +8,17 @@
 //! was weighed against the prior and the other readings in step 1; step 2
 //! keeps the value step 1 gave it (as its target) instead of bending the
 //! surface towards the doubtful reading, which a strong per-measurement
-//! weight would otherwise do. A step 2 that ends with a higher `E_m` than
-//! step 1 left (each evaluated with targets set on its own shape) is
-//! undone with a warning; a non-finite mesh is an error.
+//! weight would otherwise do.
+//!
+//! Each round starts from a re-measured shape, and where supports jump
+//! (a hull gains points, a cut curve moves to the shoulder) a round can end
+//! worse than it began. A step 2 that ends with a higher `E_m` than step 1
+//! left (each evaluated with targets set on its own shape) keeps, with a
+//! warning, the shape with the lowest `E_m` it measured: a round's start,
+//! or the step-1 shape. (Before, the step-1 shape was the only fallback, so
+//! one last round that went wrong threw away all of step 2: 3 of 40 ANSUR
+//! II subjects then missed nearly every reading,
+//! `docs/results/predict-iso.md`.) A non-finite mesh is an error.
 
 use tapeshape_measure::Measured;
 use tapeshape_mesh::{Topology, Vec3};
@@ -58,6 +66,9 @@ struct Step2Rounds<'a> {
     /// The current vertices (flat, 3V, mm) and as points.
     x_mm: Vec<f64>,
     p_mm: Vec<Vec3>,
+    /// The lowest `E_m` among the rounds' starts (round > 0): the round,
+    /// the energy, the shape (mm) and its readings.
+    best: Option<(usize, f64, Vec<f64>, Vec<Measured>)>,
 }
 
 impl RoundStep for Step2Rounds<'_> {
@@ -76,8 +87,16 @@ impl RoundStep for Step2Rounds<'_> {
         if round == 0 {
             return Ok(self.step1_measured.to_vec());
         }
-        self.model
-            .measure_checked(self.measurer, &to_m(&self.p_mm), &self.which)
+        let measured = self
+            .model
+            .measure_checked(self.measurer, &to_m(&self.p_mm), &self.which)?;
+        let e =
+            self.model
+                .stage_energy_mm(self.readings, &measured, &self.p_mm, self.config.weighting);
+        if self.best.as_ref().is_none_or(|b| e < b.1) {
+            self.best = Some((round, e, self.x_mm.clone(), measured.clone()));
+        }
+        Ok(measured)
     }
 
     fn minimise(
@@ -154,6 +173,7 @@ impl ShapeModel {
             x_mm: reference_mm.clone(),
             reference_mm,
             p_mm: Vec::new(),
+            best: None,
         };
         let thresholds = thresholds(
             readings,
@@ -180,12 +200,29 @@ impl ShapeModel {
             &step1.vertices,
             config.weighting,
         );
+        // Worse than step 1: the lowest E_m step 2 measured, a round's start
+        // or the step-1 shape (see the module docs).
         if err2 > err1 || err2.is_nan() {
-            warnings.push(format!(
-                "step 2 ended with a higher measurement energy than step 1 (E_m {err2:.4e} vs {err1:.4e} mm^4): kept the step-1 shape"
-            ));
-            x2.clone_from(&step1.vertices);
-            meas2.clone_from(&step1.measured);
+            match step.best.take().filter(|b| b.1 < err1) {
+                Some((round, e, x_mm, measured)) => {
+                    warnings.push(format!(
+                        "step 2 ended with a higher measurement energy than step 1 (E_m {err2:.4e} vs {err1:.4e} mm^4): kept its shape at the start of round {} (E_m {e:.4e})",
+                        round + 1
+                    ));
+                    x2 = x_mm
+                        .chunks_exact(3)
+                        .map(|c| [c[0] / MM_PER_M, c[1] / MM_PER_M, c[2] / MM_PER_M])
+                        .collect();
+                    meas2 = measured;
+                }
+                None => {
+                    warnings.push(format!(
+                        "step 2 ended with a higher measurement energy than step 1 (E_m {err2:.4e} vs {err1:.4e} mm^4): kept the step-1 shape"
+                    ));
+                    x2.clone_from(&step1.vertices);
+                    meas2.clone_from(&step1.measured);
+                }
+            }
         }
         Ok(Step2Shape {
             vertices: x2,

@@ -106,9 +106,19 @@ impl ShapeModel {
         x: &[Vec3],
         weighting: (EnergyWeighting, f64),
     ) -> f64 {
-        let x_mm = to_mm(x);
+        self.stage_energy_mm(given, measured, &to_mm(x), weighting)
+    }
+
+    /// [`Self::stage_energy`] of a shape in millimetres.
+    pub(crate) fn stage_energy_mm(
+        &self,
+        given: &Readings,
+        measured: &[Measured],
+        x_mm: &[Vec3],
+        weighting: (EnergyWeighting, f64),
+    ) -> f64 {
         let mut ignored = Vec::new();
-        let terms = self.build_terms(given, measured, &x_mm, weighting, &mut ignored, "");
+        let terms = self.build_terms(given, measured, x_mm, weighting, &mut ignored, "");
         measurement_energy(&terms, x_mm.as_flattened(), None)
     }
 
