@@ -575,6 +575,10 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                     );
                 }
             }
+            println!(
+                "  rounds: step 1 {:?}, step 2 {:?}",
+                r.step1_rounds, r.step2_rounds
+            );
             for (k, run) in r.step1_runs.iter().enumerate() {
                 println!(
                     "  step1 run {k}: {} it, E {:.3e} -> {:.3e}, {}",
@@ -609,7 +613,8 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
 /// `per-measurement` energy weighting), `--w2-scale W` (step 2's
 /// per-measurement reading weight, default 1e4), `--k1 K` (step 1 moves
 /// the first K components only), `--box on|off`, `--cont N|off`
-/// (continuation rounds), `--iters1`/`--iters2` (iteration caps).
+/// (continuation rounds), `--budget EVALS` (the continuation's evaluation
+/// budget per step), `--iters1`/`--iters2` (iteration caps).
 fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::error::Error>> {
     let mut s = if args.iter().any(|a| a == "--paper") {
         PredictSettings::paper()
@@ -694,6 +699,12 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
                 ..Default::default()
             }),
         };
+    }
+    if let Some(v) = arg(args, "--budget") {
+        match &mut s.continuation {
+            Some(c) => c.max_evaluations = v.parse()?,
+            None => return Err("--budget needs the continuation (not with --cont off)".into()),
+        }
     }
     if let Some(v) = arg(args, "--iters1") {
         s.step1.stop.max_iters = v.parse()?;
