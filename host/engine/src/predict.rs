@@ -104,8 +104,8 @@ pub enum PredictError {
     /// Malformed input (syntax, duplicates, files).
     #[error("{0}")]
     Input(String),
-    /// A prediction option out of its range.
-    #[error("prediction options: {0}")]
+    /// A prediction option out of its range ("lambda must lie in [0, 1], got 2").
+    #[error(transparent)]
     Settings(#[from] SettingsError),
     /// The prediction was cancelled by its observer
     /// ([`Engine::predict_observed`]); the text names the stage.

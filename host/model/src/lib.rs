@@ -76,9 +76,6 @@ pub enum ModelError {
     /// The measurer failed to measure a mesh.
     #[error("measuring the mesh failed: {0}")]
     Measure(String),
-    /// A prediction setting is out of its range (see [`PredictSettings::resolve`]).
-    #[error("prediction settings: {0}")]
-    Settings(#[from] SettingsError),
     /// Reading or writing a model file failed.
     #[error("model file {path}: {message}")]
     File {
