@@ -20,7 +20,7 @@ mod known_bodies;
 
 use known_bodies::*;
 use tapeshape::estimate::{start_estimate, tape_input};
-use tapeshape_engine::predict::{Inputs, PredictSettings};
+use tapeshape_engine::predict::{Inputs, PredictOptions};
 
 fn main() {
     let n: usize = match std::env::args().nth(1) {
@@ -67,7 +67,7 @@ fn main() {
                         .push(tape_input(n.clone(), *m, tolerance))
                         .expect("distinct measurement names");
                 }
-                let est = start_estimate(engine(), &readings, &PredictSettings::default())
+                let est = start_estimate(engine(), &readings, &PredictOptions::default())
                     .expect("the estimate starts")
                     .wait();
                 let d = match est {

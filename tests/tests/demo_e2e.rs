@@ -43,7 +43,7 @@ use tapeshape::cli::station::{plan, record, RecordOptions};
 use tapeshape::estimate::{export, start_estimate, tape_input, MeshFormat, SessionInfo};
 use tapeshape::session::Sessions;
 use tapeshape::store::Store;
-use tapeshape_engine::predict::{Inputs, PredictSettings};
+use tapeshape_engine::predict::{Inputs, PredictOptions};
 use tapeshape_mesh::Vec3;
 use tapeshape_sim::harness::{FirmwareHarness, HarnessConfig};
 use tapeshape_sim::pty::TtyStream;
@@ -136,7 +136,7 @@ fn estimate_export_and_compare(
             .push(tape_input(n.clone(), *v as f64 / 10_000.0, None))
             .unwrap();
     }
-    let job = start_estimate(engine(), &readings, &PredictSettings::default()).unwrap();
+    let job = start_estimate(engine(), &readings, &PredictOptions::default()).unwrap();
     let mut last = 0.0;
     while !job.is_finished() {
         if let Some(p) = job.next_progress(Duration::from_millis(50)) {

@@ -18,7 +18,7 @@
 use criterion::{criterion_main, Criterion};
 use tapeshape_engine::dataset::{generate_population, Dataset, PopulationSettings};
 use tapeshape_engine::predict::{
-    train, Engine, Inputs, PredictSettings, TrainSettings, DEFAULT_SETS,
+    train, Engine, Inputs, PredictOptions, TrainSettings, DEFAULT_SETS,
 };
 
 fn bench_predict(c: &mut Criterion) {
@@ -46,7 +46,7 @@ fn bench_predict(c: &mut Criterion) {
             .value;
         inputs.insert_metres(&name, v).expect("unique");
     }
-    let settings = PredictSettings::default();
+    let settings = PredictOptions::default();
     let mut g = c.benchmark_group("predict");
     g.sample_size(20);
     g.bench_function("paper34_default_model_s3", |b| {

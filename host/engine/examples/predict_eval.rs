@@ -1,8 +1,8 @@
 //! Prediction experiments of issue 4, printing markdown tables.
 //!
 //! Why an example and not a test: these take minutes on hundreds of bodies;
-//! the reduced versions run in CI (`tests/predict_sreal.rs`). A later issue
-//! builds the full evaluation suite.
+//! the reduced versions run in CI (`host/engine/tests/predict.rs`); the full
+//! evaluation suite is `tapeshape eval` (`host/eval`).
 //!
 //! ```text
 //! # the paper's S_real: train on a population, predict held-out bodies from paper34
@@ -20,7 +20,8 @@
 //!
 //! Every experiment takes the prediction settings as flags (see
 //! `settings_from_args`): `--paper` for the paper's exact pipeline, and
-//! `--w1`, `--prior`, `--k1`, `--box`, `--cont`, `--l`, `--lambda`, `--s`.
+//! `--gn`, `--w1`, `--w2`, `--w2-scale`, `--prior`, `--k1`, `--box`,
+//! `--cont`, `--iters1`, `--iters2`, `--l`, `--lambda`, `--s`.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -32,9 +33,12 @@ use tapeshape_engine::dataset::Dataset;
 use tapeshape_engine::measure::Kind;
 use tapeshape_engine::mesh::Vec3;
 use tapeshape_engine::predict::{
-    train, Engine, Inputs, PredictError, PredictSettings, TrainSettings,
+    train, Engine, Inputs, PredictError, PredictOptions, PredictSettings, TrainSettings,
 };
 use tapeshape_engine::seeded;
+use tapeshape_model::predict::{
+    Continuation, EnergyWeighting, Step1Clamp, Step1Solver, Step2Weighting,
+};
 
 fn arg(args: &[String], name: &str) -> Option<String> {
     args.iter()
@@ -153,8 +157,8 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     }
     let base = settings_from_args(args)?;
     println!(
-        "\nS_real: {n} held-out generated bodies, inputs = their paper34 values, settings l = {}, lambda = {}, s = {}, step-1 weighting {:?}, prior {:?} mm, step-1 components {:?}, Gauss-Newton {}\n",
-        base.l, base.lambda, base.s, base.step1_weighting, base.step1_prior_mm, base.step1_components, base.step1_gauss_newton
+        "\nS_real: {n} held-out generated bodies, inputs = their paper34 values, settings l = {}, lambda = {}, s = {}, step 1 {:?} weighted {:?}, step-1 components {:?}\n",
+        base.l, base.step2.lambda, base.s, base.step1.solver, base.step1.weighting, base.step1.components
     );
     println!("| model | method | Euclidean (14) mm | circumference, planar (4) mm | circumference, geodesic loops (4) mm | all circumferences mm | vertex distance mm | flipped / degenerate vs step-1 shape | flipped / degenerate vs true body (true body vs PCA mean) | mean time s |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
@@ -209,10 +213,10 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             ("feature analysis alone (start)", 0usize),
             ("full (start + steps 1, 2)", 3),
         ] {
-            let settings = PredictSettings {
+            let settings = PredictOptions::custom(PredictSettings {
                 s,
                 ..settings_from_args(args)?
-            };
+            });
             let (mut eu, mut ci, mut lo, mut vd, mut tt) = (vec![], vec![], vec![], vec![], vec![]);
             let mut vd1 = vec![];
             let (mut rms, mut rms1) = (vec![], vec![]);
@@ -317,7 +321,7 @@ type Shares = BTreeMap<String, (usize, usize)>;
 fn tally(
     engine: &Engine,
     inputs: &Inputs,
-    settings: &PredictSettings,
+    settings: &PredictOptions,
     shares: &mut Shares,
     refused: &mut Vec<String>,
 ) -> Result<(), Box<dyn std::error::Error>> {
@@ -386,9 +390,15 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let n_subsets: usize = arg(args, "--subsets").map_or(Ok(3), |s| s.parse())?;
     let settings = settings_from_args(args)?;
     println!(
-        "settings: l = {}, lambda = {}, s = {}, step-1 weighting {:?}, step-2 weighting {:?}",
-        settings.l, settings.lambda, settings.s, settings.step1_weighting, settings.step2_weighting
+        "settings: l = {}, lambda = {}, s = {}, step 1 {:?} weighted {:?}, step-2 weighting {:?}",
+        settings.l,
+        settings.step2.lambda,
+        settings.s,
+        settings.step1.solver,
+        settings.step1.weighting,
+        settings.step2.weighting
     );
+    let settings = PredictOptions::custom(settings);
     let heldout = arg(args, "--heldout")
         .map(|h| Dataset::read(&PathBuf::from(h)))
         .transpose()?;
@@ -481,7 +491,7 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     };
     let n: usize = arg(args, "--n").map_or(Ok(10), |s| s.parse())?;
     let set = arg(args, "--set").unwrap_or_else(|| "quick".into());
-    let settings = settings_from_args(args)?;
+    let settings = PredictOptions::custom(settings_from_args(args)?);
     let names = usable(&engine, engine.set_members(&set)?);
     let idx: Vec<usize> = names
         .iter()
@@ -567,6 +577,10 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                     );
                 }
             }
+            println!(
+                "  rounds: step 1 {:?}, step 2 {:?}",
+                r.step1_rounds, r.step2_rounds
+            );
             for (k, run) in r.step1_runs.iter().enumerate() {
                 println!(
                     "  step1 run {k}: {} it, E {:.3e} -> {:.3e}, {}",
@@ -594,14 +608,16 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
 
 /// Prediction settings from the flags (defaults: the station's):
 /// `--paper` (start from the paper's exact pipeline), `--l`, `--lambda`,
-/// `--s`, `--w1`/`--w2` (`paper` or `per-measurement` energy weighting),
-/// `--prior TAU_MM` (MAP step 1), `--k1 K` (step 1 moves the first K
-/// components only), `--box on|off`, `--cont N|off` (continuation rounds),
-/// `--w2-scale W` (step 2's per-measurement reading weight),
-/// `--iters1`/`--iters2` (L-BFGS iteration caps), `--gn on|off` (step 1
-/// as a Gauss-Newton MAP, see `tapeshape_model::map`; on by default).
+/// `--s`, `--gn on|off` (step 1 as the Gauss-Newton MAP, see
+/// `tapeshape_model::map`, or L-BFGS on `E_m`; read first, the other
+/// step-1 flags apply to the solver it picks), `--prior TAU_MM` (the
+/// MAP's reading noise, or the L-BFGS prior), `--w1`/`--w2` (`paper` or
+/// `per-measurement` energy weighting), `--w2-scale W` (step 2's
+/// per-measurement reading weight, default 1e4), `--k1 K` (step 1 moves
+/// the first K components only), `--box on|off`, `--cont N|off`
+/// (continuation rounds), `--budget EVALS` (the continuation's evaluation
+/// budget per step), `--iters1`/`--iters2` (iteration caps).
 fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::error::Error>> {
-    // --paper: the paper's exact pipeline (PredictSettings::paper()).
     let mut s = if args.iter().any(|a| a == "--paper") {
         PredictSettings::paper()
     } else {
@@ -611,51 +627,92 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
         s.l = v.parse()?;
     }
     if let Some(v) = arg(args, "--lambda") {
-        s.lambda = v.parse()?;
+        s.step2.lambda = v.parse()?;
     }
     if let Some(v) = arg(args, "--s") {
         s.s = v.parse()?;
     }
-    let weighting = |v: String| match v.as_str() {
-        "paper" => Ok(tapeshape_model::predict::EnergyWeighting::Paper),
-        "per-measurement" => Ok(tapeshape_model::predict::EnergyWeighting::PerMeasurement),
+    if let Some(v) = arg(args, "--gn") {
+        // Keeps the reading noise / prior the current solver had.
+        let tau = match s.step1.solver {
+            Step1Solver::Lbfgs { prior_mm } => prior_mm,
+            Step1Solver::GaussNewtonMap { tau_mm } => tau_mm,
+        };
+        s.step1.solver = match v.as_str() {
+            "on" => Step1Solver::GaussNewtonMap { tau_mm: tau },
+            "off" => Step1Solver::Lbfgs { prior_mm: tau },
+            _ => return Err(format!("--gn {v}: on or off").into()),
+        };
+    }
+    if let Some(v) = arg(args, "--prior") {
+        let tau = Some(v.parse()?);
+        s.step1.solver = match s.step1.solver {
+            Step1Solver::Lbfgs { .. } => Step1Solver::Lbfgs { prior_mm: tau },
+            Step1Solver::GaussNewtonMap { .. } => Step1Solver::GaussNewtonMap { tau_mm: tau },
+        };
+    }
+    let weighting = |v: &str| match v {
+        "paper" => Ok(EnergyWeighting::Paper),
+        "per-measurement" => Ok(EnergyWeighting::PerMeasurement),
         _ => Err(format!("weighting {v}: paper or per-measurement")),
     };
     if let Some(v) = arg(args, "--w1") {
-        s.step1_weighting = weighting(v)?;
+        s.step1.weighting = weighting(&v)?;
     }
+    let scale = arg(args, "--w2-scale").map(|v| v.parse()).transpose()?;
+    let current_scale = match s.step2.weighting {
+        Step2Weighting::PerMeasurement { reading_weight } => reading_weight,
+        Step2Weighting::Paper => 1e4,
+    };
     if let Some(v) = arg(args, "--w2") {
-        s.step2_weighting = weighting(v)?;
+        s.step2.weighting = match weighting(&v)? {
+            EnergyWeighting::Paper => Step2Weighting::Paper,
+            EnergyWeighting::PerMeasurement => Step2Weighting::PerMeasurement {
+                reading_weight: scale.unwrap_or(current_scale),
+            },
+        };
     }
-    if let Some(v) = arg(args, "--prior") {
-        s.step1_prior_mm = Some(v.parse()?);
-    }
-    if let Some(v) = arg(args, "--w2-scale") {
-        s.step2_reading_weight = v.parse()?;
-    }
-    if let Some(v) = arg(args, "--gn") {
-        s.step1_gauss_newton = v == "on";
+    if let Some(w) = scale {
+        match &mut s.step2.weighting {
+            Step2Weighting::PerMeasurement { reading_weight } => *reading_weight = w,
+            Step2Weighting::Paper => {
+                return Err(
+                    "--w2-scale needs per-measurement step-2 weighting (--w2 per-measurement)"
+                        .into(),
+                )
+            }
+        }
     }
     if let Some(v) = arg(args, "--k1") {
-        s.step1_components = Some(v.parse()?);
+        s.step1.components = Some(v.parse()?);
     }
     if let Some(v) = arg(args, "--box") {
-        s.step1_box = v == "on";
+        s.step1.clamp = if v == "on" {
+            Step1Clamp::InsideBox
+        } else {
+            Step1Clamp::AfterStep
+        };
     }
     if let Some(v) = arg(args, "--cont") {
         s.continuation = match v.as_str() {
             "off" => None,
-            n => Some(tapeshape_model::predict::Continuation {
+            n => Some(Continuation {
                 max_extra_rounds: n.parse()?,
                 ..Default::default()
             }),
         };
     }
+    if let Some(v) = arg(args, "--budget") {
+        match &mut s.continuation {
+            Some(c) => c.max_evaluations = v.parse()?,
+            None => return Err("--budget needs the continuation (not with --cont off)".into()),
+        }
+    }
     if let Some(v) = arg(args, "--iters1") {
-        s.stop.max_iters = v.parse()?;
+        s.step1.stop.max_iters = v.parse()?;
     }
     if let Some(v) = arg(args, "--iters2") {
-        s.step2_stop.max_iters = v.parse()?;
+        s.step2.stop.max_iters = v.parse()?;
     }
     Ok(s)
 }

@@ -14,7 +14,9 @@
 //!   the model file so a station needs nothing else) and fits the model.
 //! * [`Engine::predict`]: any subset of the model's measurements, each with
 //!   an optional tolerance, gives a mesh in the template topology and an
-//!   [`EstimateReport`].
+//!   [`EstimateReport`]; what can be chosen for it is [`PredictOptions`]
+//!   (the pipeline and the paper's `l`, `lambda`, `s`), resolved once per
+//!   estimate into the model's configuration.
 //! * [`Engine::default_model`]: the model that ships inside the program
 //!   (`host/engine/models/default.tsm.gz`, rebuilt with
 //!   `scripts/rebuild-default-model.sh`; see `docs/prediction.md`).
@@ -48,6 +50,7 @@
 //!   plausibility (Mahalanobis distances) in the report.
 
 pub mod input;
+pub mod options;
 
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
@@ -58,13 +61,14 @@ use tapeshape_mesh::{Anatomy, Mesh, Topology, Vec3};
 pub use tapeshape_model::predict::PredictionReport;
 use tapeshape_model::regress::JointGaussian;
 pub use tapeshape_model::{
-    Control, FitSettings, ModelError, ModelFile, PredictObserver, PredictProgress, PredictSettings,
-    PredictStage, ShapeModel, Target,
+    Control, FitSettings, ModelError, ModelFile, PredictConfig, PredictObserver, PredictProgress,
+    PredictSettings, PredictStage, Round, SettingsError, ShapeModel, Target,
 };
 use tapeshape_model::{MeasurementSetText, Provenance, TemplateInfo};
 
 use crate::dataset::{Dataset, DatasetError, DatasetKind};
 pub use input::{parse_length, Input, Inputs, Length, Unit};
+pub use options::{Pipeline, PredictOptions};
 
 /// A reading further than this many training SDs from the training mean is
 /// refused (as a unit slip when another unit explains it).
@@ -101,6 +105,9 @@ pub enum PredictError {
     /// Malformed input (syntax, duplicates, files).
     #[error("{0}")]
     Input(String),
+    /// A prediction option out of its range ("lambda must lie in [0, 1], got 2").
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
     /// The prediction was cancelled by its observer
     /// ([`Engine::predict_observed`]); the text names the stage.
     #[error("estimate cancelled ({0})")]
@@ -1042,35 +1049,32 @@ impl Engine {
         }
     }
 
-    /// Estimates a body from `inputs` with `settings` (the paper's l, lambda,
-    /// s). Inputs are checked first ([`Engine::check`]); the mesh is in the
-    /// template topology, metres, station frame.
+    /// Estimates a body from `inputs` with `options` (the pipeline and the
+    /// paper's l, lambda, s). The options are resolved and the inputs
+    /// checked first ([`Engine::check`]); the mesh is in the template
+    /// topology, metres, station frame.
     pub fn predict(
         &self,
         inputs: &Inputs,
-        settings: &PredictSettings,
+        options: &PredictOptions,
     ) -> Result<Estimate, PredictError> {
-        self.predict_observed(inputs, settings, &|_: &PredictProgress| Control::Continue)
+        self.predict_observed(inputs, options, &|_: &PredictProgress| Control::Continue)
     }
 
     /// [`Engine::predict`] with progress reports and cancelling (see
-    /// `tapeshape_model::predict`): `observer` is called once before the
-    /// input checks (stage [`PredictStage::Start`]), then by the model at
-    /// every stage boundary and now and then inside its optimisers, on this
-    /// thread. If it answers [`Control::Cancel`], returns
+    /// `tapeshape_model::predict::progress`): `observer` is called once
+    /// before the input checks (stage [`PredictStage::Check`]), then by the
+    /// model at every stage boundary and now and then inside its solvers, on
+    /// this thread. If it answers [`Control::Cancel`], returns
     /// [`PredictError::Cancelled`] and no body.
     pub fn predict_observed(
         &self,
         inputs: &Inputs,
-        settings: &PredictSettings,
+        options: &PredictOptions,
         observer: &dyn PredictObserver,
     ) -> Result<Estimate, PredictError> {
-        let before = PredictProgress {
-            stage: PredictStage::Start,
-            evaluations: 0,
-            max_iterations: 0,
-        };
-        if observer.observe(&before) == Control::Cancel {
+        let config = options.resolve()?;
+        if observer.observe(&PredictProgress::at(PredictStage::Check)) == Control::Cancel {
             return Err(PredictError::Cancelled("before the input checks".into()));
         }
         let t0 = Instant::now();
@@ -1087,7 +1091,7 @@ impl Engine {
         let p = self
             .file
             .model
-            .predict_observed(&targets, &self.compiled, &self.topology, settings, observer)
+            .predict_observed(&targets, &self.compiled, &self.topology, &config, observer)
             .map_err(|e| match e {
                 ModelError::Cancelled(stage) => PredictError::Cancelled(stage),
                 e => PredictError::Model(e),

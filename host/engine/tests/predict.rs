@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 use tapeshape_engine::dataset::{generate_population, Dataset, PopulationSettings};
 use tapeshape_engine::mesh::Vec3;
 use tapeshape_engine::predict::{
-    load_model_bytes, save_model, train, Engine, Inputs, PredictError, PredictSettings,
+    load_model_bytes, save_model, train, Engine, Inputs, PredictError, PredictOptions,
     TrainSettings,
 };
 
@@ -115,9 +115,9 @@ fn sreal_compute() -> [[f64; 3]; 2] {
             let est = e
                 .predict(
                     &inputs,
-                    &PredictSettings {
-                        s,
-                        ..PredictSettings::default()
+                    &PredictOptions {
+                        s: Some(s),
+                        ..PredictOptions::default()
                     },
                 )
                 .unwrap();
@@ -199,7 +199,7 @@ fn a_subset_fits_and_reports_the_rest() {
     for (n, v) in names.iter().zip(&truth) {
         inputs.insert_metres(n, *v).unwrap();
     }
-    let est = e.predict(&inputs, &PredictSettings::default()).unwrap();
+    let est = e.predict(&inputs, &PredictOptions::default()).unwrap();
     let got = measure(e, &names, &est.mesh.vertices);
     for (k, n) in names.iter().enumerate() {
         assert!(
@@ -267,7 +267,7 @@ fn the_embedded_default_model_predicts_from_the_quick_set() {
     for (n, v) in names.iter().zip(&truth) {
         inputs.insert_metres(n, *v).unwrap();
     }
-    let est = e.predict(&inputs, &PredictSettings::default()).unwrap();
+    let est = e.predict(&inputs, &PredictOptions::default()).unwrap();
     let got = measure(e, &names, &est.mesh.vertices);
     for (k, n) in names.iter().enumerate() {
         let tol = e.set().definitions[e.set().index_of(n).unwrap()]
@@ -293,7 +293,7 @@ fn entered(pairs: &[&str]) -> Inputs {
 
 fn refuse(pairs: &[&str]) -> PredictError {
     default_engine()
-        .predict(&entered(pairs), &PredictSettings::default())
+        .predict(&entered(pairs), &PredictOptions::default())
         .expect_err("must be refused")
 }
 
@@ -313,7 +313,7 @@ fn bad_input_gets_a_clear_message() {
     let mut nan = Inputs::new();
     nan.insert_metres("stature", f64::NAN).unwrap();
     let e = default_engine()
-        .predict(&nan, &PredictSettings::default())
+        .predict(&nan, &PredictOptions::default())
         .unwrap_err();
     assert!(matches!(e, PredictError::BadValue(_)), "{e}");
 
@@ -338,7 +338,7 @@ fn bad_input_gets_a_clear_message() {
     assert!(e.to_string().contains("SD"), "{e}");
 
     assert!(default_engine()
-        .predict(&Inputs::new(), &PredictSettings::default())
+        .predict(&Inputs::new(), &PredictOptions::default())
         .is_err());
 }
 
@@ -349,7 +349,7 @@ fn an_implausible_but_possible_set_gives_a_result_with_a_warning() {
     let (mean, sd) = e.file().model.measurement_stats()[j];
     let mut inputs = Inputs::new();
     inputs.insert_metres("stature", mean + 4.5 * sd).unwrap();
-    let est = e.predict(&inputs, &PredictSettings::default()).unwrap();
+    let est = e.predict(&inputs, &PredictOptions::default()).unwrap();
     assert!(est.mesh.vertices.iter().flatten().all(|c| c.is_finite()));
     let p = &est.report.prediction.plausibility;
     assert!(

@@ -19,8 +19,7 @@ use std::time::{Duration, Instant};
 
 use tapeshape_measure::Kind;
 use tapeshape_mesh::Vec3;
-use tapeshape_model::refine::LbfgsImpl;
-use tapeshape_model::{FitSettings, PredictSettings, ShapeModel, Target};
+use tapeshape_model::{FitSettings, PredictConfig, PredictSettings, ShapeModel, Target};
 
 /// CPU time of the calling thread: under a loaded shared machine it measures
 /// the work done, where wall time also counts waiting for the core.
@@ -104,19 +103,10 @@ fn main() {
 
     // One prediction, repeated.
     let targets = targets_of(&test_meas[0]);
-    for (label, solver, history) in [
-        ("built-in", LbfgsImpl::Builtin, 7),
-        ("built-in, history 5", LbfgsImpl::Builtin, 5),
-        ("argmin", LbfgsImpl::Argmin, 7),
-    ] {
-        let settings = PredictSettings {
-            step2_solver: solver,
-            step2_stop: tapeshape_model::refine::StopRule {
-                history,
-                ..Default::default()
-            },
-            ..PredictSettings::default()
-        };
+    for (label, history) in [("history 7", 7), ("history 5 (the default)", 5)] {
+        let mut settings = PredictSettings::default();
+        settings.step2.stop.history = history;
+        let settings = settings.resolve().expect("valid settings");
         let runs = if quick { 5 } else { 21 };
         let (mut total, mut cpu) = (Vec::new(), Vec::new());
         let (mut s1, mut s2) = (Vec::new(), Vec::new());
@@ -146,11 +136,13 @@ fn main() {
 
     // Accuracy on held-out bodies: the method vs feature analysis alone (s = 0).
     let kinds: Vec<&Kind> = real.set.set().definitions.iter().map(|d| &d.kind).collect();
-    let settings = PredictSettings::default();
+    let settings = PredictConfig::default();
     let fa_settings = PredictSettings {
         s: 0,
         ..PredictSettings::default()
-    };
+    }
+    .resolve()
+    .expect("valid settings");
     let mut acc = [[0.0f64; 4]; 2]; // [method, FA] x [euclid sum, euclid n, circ sum, circ n]
     let mut v2v = [0.0f64; 2];
     let (mut flipped, mut degenerate, mut warned) = (0, 0, 0);

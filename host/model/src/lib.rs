@@ -1,10 +1,13 @@
-//! The Wuhrer & Shu shape model: PCA, feature analysis, L-BFGS refinement.
+//! The Wuhrer & Shu shape model: PCA, feature analysis, refinement in two
+//! steps.
 //!
 //! This crate is the paper's method ("Estimating 3D Human Shapes from
 //! Measurements", sections Approach and Shape Refinement) as a library, in the
 //! scikit-learn style: settings ([`FitSettings`], [`PredictSettings`]) are kept
 //! apart from learned state ([`ShapeModel`]); [`ShapeModel::fit`] learns, then
-//! [`ShapeModel::predict`] estimates a body from measurements.
+//! [`ShapeModel::predict`] estimates a body from measurements, stage by stage
+//! ([`ShapeModel::start`], [`ShapeModel::step1`], [`ShapeModel::step2`], each
+//! callable on its own; see [`predict`]).
 //!
 //! * [`pca`]: PCA of the registered meshes, `X = A W + mu`, computed from the
 //!   N x N Gram matrix because N (bodies) is far below 3V (coordinates).
@@ -14,8 +17,13 @@
 //!   checks of the station ([`ShapeModel::conditional_measurements`]).
 //! * [`energy`]: the paper's energies `E_e`, `E_g`, `E_c` (one per-segment form
 //!   over the measurement supports) and `E_s`, with analytic gradients.
-//! * [`refine`]: L-BFGS (argmin) with the paper's stopping rules.
-//! * [`predict`]: the prediction pipeline and its report ([`Prediction`]).
+//! * [`lbfgs`]: the one L-BFGS (hand-written, allocation-free) with the
+//!   paper's stopping rules, a backtracking and a strong-Wolfe line search.
+//! * [`refine`]: the objectives of step 1 (over the weights) and step 2 (over
+//!   the vertices).
+//! * [`map`]: step 1 as a Gauss-Newton MAP estimate (the default).
+//! * [`predict`]: the prediction as stages (start, step 1, step 2, the clamp,
+//!   the shared round driver), its settings and its report ([`Prediction`]).
 //! * [`mod@file`]: the versioned model file (see `docs/model-format.md`).
 //!
 //! Units and frame: the public API takes and returns **metres** in the station
@@ -27,6 +35,7 @@
 
 pub mod energy;
 pub mod file;
+pub mod lbfgs;
 pub mod map;
 pub mod pca;
 pub mod predict;
@@ -36,13 +45,14 @@ pub mod regress;
 mod model;
 
 pub use file::{MeasurementSetText, ModelFile, Provenance, TemplateInfo};
+pub use lbfgs::{RunInfo, StopRule, Termination};
 pub use model::{FitSettings, ShapeModel};
 pub use predict::{
     Continuation, Control, EnergyWeighting, MeasurementReport, Measurer, Plausibility,
-    PlausibilityLabel, PredictObserver, PredictProgress, PredictSettings, PredictStage, Prediction,
-    PredictionReport, StageTimings, StartMethod, Target,
+    PlausibilityLabel, PredictConfig, PredictObserver, PredictProgress, PredictSettings,
+    PredictStage, Prediction, PredictionReport, Readings, Round, SettingsError, StageTimings,
+    StartMethod, Step1Clamp, Step1Settings, Step1Solver, Step2Settings, Step2Weighting, Target,
 };
-pub use refine::{LbfgsImpl, StopRule};
 pub use tapeshape_measure::{Measured, Support, SupportPoint};
 
 /// Millimetres per metre: the optimiser works in mm (see the crate docs).
@@ -66,14 +76,6 @@ pub enum ModelError {
     /// The measurer failed to measure a mesh.
     #[error("measuring the mesh failed: {0}")]
     Measure(String),
-    /// The optimiser failed.
-    #[error("optimiser failed in {stage}: {message}")]
-    Optimiser {
-        /// Stage ("step 1" or "step 2").
-        stage: &'static str,
-        /// What went wrong.
-        message: String,
-    },
     /// Reading or writing a model file failed.
     #[error("model file {path}: {message}")]
     File {

@@ -183,7 +183,7 @@ impl Pca {
             .enumerate()
             .map(|(r, m)| {
                 let row = &self.basis[r * k..(r + 1) * k];
-                m + crate::refine::dot(row, &scaled)
+                m + crate::lbfgs::dot(row, &scaled)
             })
             .collect()
     }

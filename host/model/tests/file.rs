@@ -67,7 +67,7 @@ fn save_load_round_trip_is_exact() {
         .into_iter()
         .map(|v| Some(tapeshape_model::Target::exact(v)))
         .collect();
-    let settings = tapeshape_model::PredictSettings::default();
+    let settings = tapeshape_model::PredictConfig::default();
     let topo = topology();
     let a = f
         .model

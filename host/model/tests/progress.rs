@@ -13,9 +13,14 @@ use tapeshape_measure::Measured;
 use tapeshape_mesh::Vec3;
 use tapeshape_model::predict::MeasureError;
 use tapeshape_model::{
-    Control, Measurer, ModelError, PredictProgress, PredictSettings, PredictStage, ShapeModel,
+    Control, Measurer, ModelError, PredictConfig, PredictProgress, PredictStage, Round, ShapeModel,
     Target,
 };
+
+/// A progress report of step `stage`'s round `index` of `of`.
+fn round(stage: PredictStage, index: usize, of: usize) -> (PredictStage, Option<Round>) {
+    (stage, Some(Round { index, of }))
+}
 
 fn setup() -> (ShapeModel, Vec<Option<Target>>) {
     let model = train(40, 3);
@@ -33,7 +38,7 @@ fn setup() -> (ShapeModel, Vec<Option<Target>>) {
 fn progress_is_monotone_covers_every_stage_and_ends_at_one() {
     let (model, targets) = setup();
     let topo = topology();
-    let settings = PredictSettings::default();
+    let settings = PredictConfig::default();
     let seen: RefCell<Vec<PredictProgress>> = RefCell::new(Vec::new());
     let observer = |p: &PredictProgress| {
         seen.borrow_mut().push(*p);
@@ -52,24 +57,24 @@ fn progress_is_monotone_covers_every_stage_and_ends_at_one() {
     assert_eq!(*fractions.last().unwrap(), 1.0);
     assert!(fractions.iter().all(|f| (0.0..=1.0).contains(f)));
     // Every round of both steps is announced at its boundary, in order.
-    let boundaries: Vec<PredictStage> = seen
+    let boundaries: Vec<(PredictStage, Option<Round>)> = seen
         .iter()
         .filter(|p| {
             p.evaluations == 0 && !matches!(p.stage, PredictStage::Start | PredictStage::Done)
         })
-        .map(|p| p.stage)
+        .map(|p| (p.stage, p.round))
         .collect();
     // Continuation rounds (run >= s) are announced too, one per L-BFGS run.
-    let s = settings.s;
+    let s = settings.rounds().s();
     let (n1, n2) = (
         observed.report.step1_runs.len(),
         observed.report.step2_runs.len(),
     );
     assert!(n1 >= s && n2 >= s, "{n1} and {n2} runs for s = {s}");
-    let mut expected: Vec<PredictStage> = (0..n1)
-        .map(|run| PredictStage::Step1 { run, of: s })
+    let mut expected: Vec<(PredictStage, Option<Round>)> = (0..n1)
+        .map(|run| round(PredictStage::Step1, run, s))
         .collect();
-    expected.extend((0..n2).map(|run| PredictStage::Step2 { run, of: s }));
+    expected.extend((0..n2).map(|run| round(PredictStage::Step2, run, s)));
     // The first in-run report (evaluation 0) has the same shape as the
     // boundary's; keep one per stage.
     let mut dedup = boundaries.clone();
@@ -88,21 +93,27 @@ fn progress_is_monotone_covers_every_stage_and_ends_at_one() {
 fn cancel_at_each_boundary_stops_there() {
     let (model, targets) = setup();
     let topo = topology();
-    let settings = PredictSettings::default();
+    let settings = PredictConfig::default();
     let stages = [
-        PredictStage::Start,
-        PredictStage::Step1 { run: 0, of: 3 },
-        PredictStage::Step1 { run: 2, of: 3 },
-        PredictStage::Step2 { run: 1, of: 3 },
+        (PredictStage::Start, None),
+        round(PredictStage::Step1, 0, 3),
+        round(PredictStage::Step1, 2, 3),
+        round(PredictStage::Step2, 1, 3),
     ];
-    for at in stages {
+    for (stage, rnd) in stages {
+        let at = PredictProgress {
+            stage,
+            round: rnd,
+            evaluations: 0,
+            max_iterations: 0,
+        };
         let later = RefCell::new(0usize);
         let cancelled = RefCell::new(false);
         let observer = |p: &PredictProgress| {
             if *cancelled.borrow() {
                 *later.borrow_mut() += 1;
             }
-            if p.stage == at {
+            if (p.stage, p.round) == (stage, rnd) {
                 *cancelled.borrow_mut() = true;
                 Control::Cancel
             } else {
@@ -146,7 +157,7 @@ impl Measurer for Counting<'_> {
 fn cancel_inside_an_optimiser_run_ends_it_at_once() {
     let (model, targets) = setup();
     let topo = topology();
-    let settings = PredictSettings::default();
+    let settings = PredictConfig::default();
     let never = Cell::new(false);
     let full = Counting {
         cancelled: &never,
@@ -161,7 +172,10 @@ fn cancel_inside_an_optimiser_run_ends_it_at_once() {
         if cancelled.get() {
             calls_after.set(calls_after.get() + 1);
         }
-        if matches!(p.stage, PredictStage::Step2 { run: 0, .. }) && p.evaluations > 0 {
+        if p.stage == PredictStage::Step2
+            && p.round.is_some_and(|r| r.index == 0)
+            && p.evaluations > 0
+        {
             cancelled.set(true);
             return Control::Cancel;
         }
@@ -190,33 +204,26 @@ fn fraction_is_monotone_over_synthetic_reports() {
     // Within a run the fraction grows with the evaluations and stays below
     // the next run's start, whatever the evaluation count.
     let of = 3;
-    let mut reports = vec![PredictProgress {
-        stage: PredictStage::Start,
-        evaluations: 0,
-        max_iterations: 0,
-    }];
+    let mut reports = vec![PredictProgress::at(PredictStage::Start)];
     // Runs of..of + 2 are continuation rounds: the fraction holds there.
     for step in 0..2 {
         for run in 0..of + 2 {
             for evaluations in [0, 1, 10, 100, 129, 130, 500, 10_000] {
                 let stage = if step == 0 {
-                    PredictStage::Step1 { run, of }
+                    PredictStage::Step1
                 } else {
-                    PredictStage::Step2 { run, of }
+                    PredictStage::Step2
                 };
                 reports.push(PredictProgress {
                     stage,
+                    round: Some(Round { index: run, of }),
                     evaluations,
                     max_iterations: 100,
                 });
             }
         }
     }
-    reports.push(PredictProgress {
-        stage: PredictStage::Done,
-        evaluations: 0,
-        max_iterations: 0,
-    });
+    reports.push(PredictProgress::at(PredictStage::Done));
     let f: Vec<f64> = reports.iter().map(|p| p.fraction()).collect();
     for w in f.windows(2) {
         assert!(w[1] >= w[0], "{f:?}");

@@ -5,7 +5,7 @@ mod real;
 
 use std::time::Instant;
 
-use tapeshape_model::{FitSettings, PredictSettings, ShapeModel, Target};
+use tapeshape_model::{FitSettings, PredictConfig, ShapeModel, Target};
 
 #[test]
 fn paper34_prediction_on_generated_bodies() {
@@ -21,15 +21,20 @@ fn paper34_prediction_on_generated_bodies() {
     let (test_bodies, test_meas) = real.population(2, 999);
     let topo = real.body.topology();
     for (body, m) in test_bodies.iter().zip(&test_meas) {
-        // A measurement between two landmarks on the same vertex measures 0 on
-        // every body (a defect of the landmark data, reported): it cannot be a
-        // target, so it is left out like a missing reading.
+        // Every paper34 measurement has length on every body (one between
+        // two landmarks on the same vertex would measure 0 and could be no
+        // target: a defect of the landmark data, which this catches).
+        let names = real.names();
         let targets: Vec<Option<Target>> = m
             .iter()
-            .map(|&v| (v > 0.0).then(|| Target::exact(v)))
+            .zip(&names)
+            .map(|(&v, name)| {
+                assert!(v > 0.0, "{name} measures {v} m on a generated body");
+                Some(Target::exact(v))
+            })
             .collect();
         let pred = model
-            .predict(&targets, &real.set, topo, &PredictSettings::default())
+            .predict(&targets, &real.set, topo, &PredictConfig::default())
             .unwrap();
         let r = &pred.report;
         let err = |f: fn(&tapeshape_model::MeasurementReport) -> Option<f64>| -> f64 {
@@ -73,16 +78,37 @@ fn paper34_prediction_on_generated_bodies() {
             );
         }
         println!("{:?}\n{:?}", r.step1_runs, r.step2_runs);
-        // Step 1 minimises the paper's energy (squared-length differences,
-        // dominated by the long measurements), not the mean absolute error,
-        // which may rise a little: assert what the step does.
+        // What step 1 must do. Its default is the MAP estimate with every
+        // reading trusted to tau = 1 mm: each of its runs lowers its own
+        // objective, the objective re-measured on the shapes
+        // (sum_j ((m_j - T_j) / 1 mm)^2 + |w|^2) is lower after step 1 than
+        // at the start, and so the readings' errors shrink (feature
+        // analysis leaves them 1.5-2.7 mm off on average here, step 1
+        // 0.2-0.6 mm).
         for run in &r.step1_runs {
             assert!(
                 run.cost_end < run.cost_start,
-                "step 1 run did not lower E_m: {run:?}"
+                "a step-1 run did not lower its objective: {run:?}"
             );
         }
-        assert!(e1 < e0 * 1.5, "step 1 {e1} mm vs start {e0} mm");
+        assert!(
+            !r.warnings.iter().any(|w| w.starts_with("step 1 ended")),
+            "step 1 was undone: {:?}",
+            r.warnings
+        );
+        let map = |f: fn(&tapeshape_model::MeasurementReport) -> Option<f64>, w: &[f64]| -> f64 {
+            r.measurements
+                .iter()
+                .filter_map(|x| Some((f(x)? - x.target_mm?).powi(2)))
+                .sum::<f64>()
+                + w.iter().map(|x| x * x).sum::<f64>()
+        };
+        let (f0, f1) = (
+            map(|x| x.start_mm, &r.weights_start),
+            map(|x| x.step1_mm, &r.weights_step1),
+        );
+        assert!(f1 < f0, "MAP objective: step 1 {f1} vs start {f0}");
+        assert!(e1 < e0, "mean error: step 1 {e1} mm vs start {e0} mm");
         assert!(e2 < e1, "step 2 {e2} vs step 1 {e1}");
         assert!(e2 < 1.0, "mean error after step 2: {e2} mm");
         assert_eq!(r.plausibility.flipped_triangles, 0);

@@ -5,7 +5,14 @@
 mod common;
 
 use common::*;
-use tapeshape_model::{PlausibilityLabel, PredictSettings, Target};
+use tapeshape_model::{
+    PlausibilityLabel, PredictConfig, PredictSettings, Step1Clamp, Step1Solver, Target,
+};
+
+/// The settings, resolved (they are valid in every test here).
+fn cfg(settings: &PredictSettings) -> PredictConfig {
+    settings.resolve().expect("valid settings")
+}
 
 fn rms(errs: &[f64]) -> f64 {
     (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt()
@@ -27,7 +34,7 @@ fn steps_reduce_the_error_and_step2_fits_to_a_tenth_of_a_millimetre() {
     // The paper's pipeline: its step 1 leaves errors that step 2 must fix
     // by leaving the PCA space (asserted below).
     let pred = model
-        .predict(&targets, &TubeMeasurer, &topo, &PredictSettings::paper())
+        .predict(&targets, &TubeMeasurer, &topo, &PredictConfig::paper())
         .unwrap();
     let r = &pred.report;
     let stage = |f: fn(&tapeshape_model::MeasurementReport) -> Option<f64>| -> Vec<f64> {
@@ -108,10 +115,9 @@ fn refinement_keeps_in_family_bodies_as_close_as_the_start() {
     let topo = topology();
     let mut s = 4242;
     let mean = model.shape(&vec![0.0; model.n_components()]).unwrap();
-    let settings = PredictSettings {
-        step1_prior_mm: Some(0.01),
-        ..PredictSettings::default()
-    };
+    let mut settings = PredictSettings::default();
+    settings.step1.solver = Step1Solver::GaussNewtonMap { tau_mm: Some(0.01) };
+    let settings = cfg(&settings);
     let (mut d_start, mut d_final, mut d_mean) = (0.0, 0.0, 0.0);
     let n = 10;
     for _ in 0..n {
@@ -162,7 +168,7 @@ fn a_subset_of_measurements_starts_from_the_conditional_and_fits_what_was_given(
     // The paper's pipeline: its step 1 leaves errors that step 2 must fix
     // by leaving the PCA space (asserted below).
     let pred = model
-        .predict(&targets, &TubeMeasurer, &topo, &PredictSettings::paper())
+        .predict(&targets, &TubeMeasurer, &topo, &PredictConfig::paper())
         .unwrap();
     let r = &pred.report;
     assert_eq!(
@@ -202,7 +208,7 @@ fn implausible_targets_are_clamped_and_warned_about_never_a_crash() {
         .collect();
     let settings = PredictSettings::default();
     let pred = model
-        .predict(&targets, &TubeMeasurer, &topo, &settings)
+        .predict(&targets, &TubeMeasurer, &topo, &cfg(&settings))
         .unwrap();
     let r = &pred.report;
     assert!(!r.plausibility.clamped_start.is_empty());
@@ -226,7 +232,7 @@ fn implausible_targets_are_clamped_and_warned_about_never_a_crash() {
 fn bad_targets_are_clear_errors() {
     let model = train(20, 6);
     let topo = topology();
-    let settings = PredictSettings::default();
+    let settings = PredictConfig::default();
     let mm: Vec<Option<Target>> = vec![Some(Target::exact(1750.0)); 7];
     let err = model
         .predict(&mm, &TubeMeasurer, &topo, &settings)
@@ -256,13 +262,14 @@ fn bad_targets_are_clear_errors() {
     assert!(model
         .predict(&ok, &TubeMeasurer, &other, &settings)
         .is_err());
-    let bad_lambda = PredictSettings {
-        lambda: 1.5,
-        ..PredictSettings::default()
-    };
-    assert!(model
-        .predict(&ok, &TubeMeasurer, &topo, &bad_lambda)
-        .is_err());
+    // Settings out of range are refused when resolved, before predicting.
+    let mut bad_lambda = PredictSettings::default();
+    bad_lambda.step2.lambda = 1.5;
+    let err = bad_lambda.resolve().unwrap_err();
+    assert!(
+        err.to_string().contains("lambda must lie in [0, 1]"),
+        "{err}"
+    );
     // Other entry points check their inputs too.
     assert!(model.conditional_measurements(&[Some(1.0); 3]).is_err());
     let mut nan_obs = vec![None; 7];
@@ -315,10 +322,9 @@ fn tolerance_lets_a_doubtful_reading_give_way() {
             })
             .collect()
     };
-    let settings = PredictSettings {
-        lambda: 0.5,
-        ..PredictSettings::default()
-    };
+    let mut settings = PredictSettings::default();
+    settings.step2.lambda = 0.5;
+    let settings = cfg(&settings);
     let trusted = model
         .predict(&make(0.001), &TubeMeasurer, &topo, &settings)
         .unwrap();
@@ -361,7 +367,7 @@ fn per_measurement_weighting_fits_step_1_closer_than_the_papers() {
         .into_iter()
         .map(|v| Some(Target::exact(v)))
         .collect();
-    let step1_rms = |settings: &PredictSettings| -> (f64, f64) {
+    let step1_rms = |settings: &PredictConfig| -> (f64, f64) {
         let r = model
             .predict(&targets, &TubeMeasurer, &topo, settings)
             .unwrap()
@@ -374,14 +380,12 @@ fn per_measurement_weighting_fits_step_1_closer_than_the_papers() {
         let e2: Vec<f64> = r.measurements.iter().map(|m| m.error_mm.unwrap()).collect();
         (rms(&e1), rms(&e2))
     };
-    let paper = step1_rms(&PredictSettings::paper());
+    let paper = step1_rms(&PredictConfig::paper());
     // The weighting alone (the default's MAP prior trades step-1 fit for
     // plausibility on purpose).
-    let ours = step1_rms(&PredictSettings {
-        step1_prior_mm: None,
-        step1_gauss_newton: false,
-        ..PredictSettings::default()
-    });
+    let mut ours = PredictSettings::default();
+    ours.step1.solver = Step1Solver::Lbfgs { prior_mm: None };
+    let ours = step1_rms(&cfg(&ours));
     println!("paper step 1 / final rms {paper:?}, default {ours:?}");
     assert!(
         ours.0 < paper.0,
@@ -407,10 +411,10 @@ fn run_tube(settings: &PredictSettings, l: f64) -> (f64, f64, usize, usize) {
             &targets,
             &TubeMeasurer,
             &topo,
-            &PredictSettings {
+            &cfg(&PredictSettings {
                 l,
                 ..settings.clone()
-            },
+            }),
         )
         .unwrap()
         .report;
@@ -428,22 +432,15 @@ fn run_tube(settings: &PredictSettings, l: f64) -> (f64, f64, usize, usize) {
 /// within its threshold or stop improving, and ends closer than without.
 #[test]
 fn continuation_adds_rounds_while_readings_miss() {
-    let short = PredictSettings {
+    let mut short = PredictSettings {
         s: 1,
-        stop: tapeshape_model::StopRule {
-            max_iters: 5,
-            ..Default::default()
-        },
-        step2_stop: tapeshape_model::StopRule {
-            max_iters: 5,
-            history: 5,
-            ..Default::default()
-        },
         continuation: None,
-        // The L-BFGS step 1, whose iteration cap leaves readings off.
-        step1_gauss_newton: false,
         ..PredictSettings::default()
     };
+    short.step1.stop.max_iters = 5;
+    short.step2.stop.max_iters = 5;
+    // The L-BFGS step 1, whose iteration cap leaves readings off.
+    short.step1.solver = Step1Solver::Lbfgs { prior_mm: None };
     let without = run_tube(&short, 3.0);
     let with = run_tube(
         &PredictSettings {
@@ -451,7 +448,7 @@ fn continuation_adds_rounds_while_readings_miss() {
                 max_extra_rounds: 20,
                 share: 0.01,
                 default_allowable_mm: 1.0,
-                time_budget_s: 60.0,
+                max_evaluations: 1_000_000,
             }),
             ..short.clone()
         },
@@ -472,20 +469,12 @@ fn clamping_inside_step_1_refits_the_other_components() {
         continuation: None,
         ..PredictSettings::default()
     };
-    let after = run_tube(
-        &PredictSettings {
-            step1_box: false,
-            ..base.clone()
-        },
-        1.0,
-    );
-    let inside = run_tube(
-        &PredictSettings {
-            step1_box: true,
-            ..base
-        },
-        1.0,
-    );
+    let mut after = base.clone();
+    after.step1.clamp = Step1Clamp::AfterStep;
+    let after = run_tube(&after, 1.0);
+    let mut inside = base;
+    inside.step1.clamp = Step1Clamp::InsideBox;
+    let inside = run_tube(&inside, 1.0);
     println!("clamp after step 1 {after:?}, inside {inside:?}");
     assert!(
         inside.0 < 0.95 * after.0,

@@ -32,8 +32,8 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 use tapeshape_engine::predict::{
-    Control, Engine, Estimate, Input, Inputs, Length, PredictError, PredictProgress,
-    PredictSettings, PredictStage, Unit,
+    Control, Engine, Estimate, Input, Inputs, Length, PredictError, PredictOptions,
+    PredictProgress, PredictStage, Unit,
 };
 use tapeshape_mesh::io::{
     write_atomic, write_glb, write_obj, write_ply, MeshIoError, PlyPrecision,
@@ -59,7 +59,7 @@ pub fn tape_input(name: impl Into<String>, metres: f64, tolerance: Option<f64>) 
 /// A progress report of a running estimate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Progress {
-    /// The stage (start, step 1 round k of s, step 2 round k of s, done).
+    /// The stage (check, start, step 1, step 2, done).
     pub stage: PredictStage,
     /// Share of the estimate done, 0 to 1, non-decreasing over one job.
     pub fraction: f64,
@@ -117,8 +117,8 @@ pub struct EstimateJob {
 /// is always reported), so the channel carries a few hundred at most.
 const MIN_STEP: f64 = 0.005;
 
-/// Starts estimating a body from `inputs` on a new thread with the
-/// paper's `settings`. `engine` is any shared handle to an engine
+/// Starts estimating a body from `inputs` on a new thread with
+/// `options` (the pipeline and the paper's l, lambda, s). `engine` is any shared handle to an engine
 /// (`Engine::default_model()` gives a `&'static Engine`; an `Arc<Engine>`
 /// works too).
 ///
@@ -130,14 +130,14 @@ const MIN_STEP: f64 = 0.005;
 pub fn start_estimate<E>(
     engine: E,
     inputs: &Inputs,
-    settings: &PredictSettings,
+    options: &PredictOptions,
 ) -> Result<EstimateJob, EstimateError>
 where
     E: std::ops::Deref<Target = Engine> + Send + 'static,
 {
     check_inputs(inputs)?;
     let inputs = inputs.clone();
-    let settings = settings.clone();
+    let options = options.clone();
     let (tx, rx) = mpsc::channel();
     let cancel = CancelHandle::default();
     let flag = cancel.clone();
@@ -166,7 +166,7 @@ where
                 }
                 Control::Continue
             };
-            Ok(engine.predict_observed(&inputs, &settings, &observer)?)
+            Ok(engine.predict_observed(&inputs, &options, &observer)?)
         })
         .map_err(|e| EstimateError::Panicked(format!("could not start a thread: {e}")))?;
     Ok(EstimateJob {
@@ -654,7 +654,7 @@ mod tests {
     #[test]
     fn a_job_reports_monotone_progress_and_returns_the_engines_body() {
         let e = engine();
-        let settings = PredictSettings::default();
+        let settings = PredictOptions::default();
         let job = start_estimate(e, &readings(), &settings).unwrap();
         let mut seen = Vec::new();
         while !job.is_finished() {
@@ -668,9 +668,7 @@ mod tests {
         }
         assert_eq!(seen.last().unwrap().stage, PredictStage::Done);
         assert_eq!(seen.last().unwrap().fraction, 1.0);
-        assert!(seen
-            .iter()
-            .any(|p| matches!(p.stage, PredictStage::Step2 { .. })));
+        assert!(seen.iter().any(|p| p.stage == PredictStage::Step2));
         // The same body as a direct prediction (the job adds nothing).
         let direct = e.predict(&readings(), &settings).unwrap();
         assert_eq!(direct.mesh.vertices, est.mesh.vertices);
@@ -680,15 +678,15 @@ mod tests {
     fn cancelling_ends_the_job_with_cancelled() {
         let e = engine();
         // Cancel before it starts: the engine stops at its first report.
-        let job = start_estimate(e, &readings(), &PredictSettings::default()).unwrap();
+        let job = start_estimate(e, &readings(), &PredictOptions::default()).unwrap();
         job.cancel();
         assert!(matches!(job.wait(), Err(EstimateError::Cancelled(_))));
         // Cancel from another handle once step 2 is under way.
-        let job = start_estimate(e, &readings(), &PredictSettings::default()).unwrap();
+        let job = start_estimate(e, &readings(), &PredictOptions::default()).unwrap();
         let handle = job.cancel_handle();
         let mut cancelled_at = None;
         while let Some(p) = job.next_progress(Duration::from_secs(30)) {
-            if matches!(p.stage, PredictStage::Step2 { .. }) {
+            if p.stage == PredictStage::Step2 {
                 handle.cancel();
                 cancelled_at = Some(p);
                 break;
@@ -704,7 +702,7 @@ mod tests {
     #[test]
     fn bad_readings_fail_before_or_inside_the_job_with_a_clear_error() {
         let e = engine();
-        let s = PredictSettings::default();
+        let s = PredictOptions::default();
         let mut twice = readings();
         let err = twice.push(tape_input("chest", 0.99, None)).unwrap_err();
         assert!(err.to_string().contains("given twice"), "{err}");
@@ -729,7 +727,7 @@ mod tests {
     #[test]
     fn export_writes_every_format_and_a_report_that_reads_back() {
         let e = engine();
-        let est = e.predict(&readings(), &PredictSettings::default()).unwrap();
+        let est = e.predict(&readings(), &PredictOptions::default()).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let folder = dir.path().join("out/nested");
         let session = SessionInfo {
@@ -808,7 +806,7 @@ mod tests {
     #[test]
     fn an_unwritable_folder_is_a_clear_error() {
         let e = engine();
-        let est = e.predict(&readings(), &PredictSettings::default()).unwrap();
+        let est = e.predict(&readings(), &PredictOptions::default()).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("a-file");
         std::fs::write(&file, b"x").unwrap();

@@ -140,12 +140,13 @@ impl Params {
     /// these parameters. The experiments reproduce the paper, so they do
     /// not use the product's default refinements.
     pub fn predict_settings(&self) -> PredictSettings {
-        PredictSettings {
+        let mut settings = PredictSettings {
             l: self.l,
-            lambda: self.lambda,
             s: self.s,
             ..PredictSettings::paper()
-        }
+        };
+        settings.step2.lambda = self.lambda;
+        settings
     }
 }
 

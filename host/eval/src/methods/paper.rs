@@ -4,14 +4,11 @@
 //!
 //! * [`Ours`]: `ShapeModel::predict` with the paper's settings (start, step 1
 //!   over the weights, step 2 over the vertices).
-//! * [`StepOneOnly`]: start and step 1 only; the result is the step-1 shape
-//!   `mu + A (sigma .* w_step1)`, inside the PCA space (Baek and Lee's
-//!   approach is "conceptually similar to the first optimization step",
-//!   paper section 2). `PredictSettings` has no switch to skip step 2 (its
-//!   `s` counts the rounds of both steps), so step 2 is given no iterations
-//!   (`step2_stop.max_iters = 0`, `lambda = 1`) and the mesh is rebuilt from
-//!   the report's step-1 weights, which makes the result exactly the step-1
-//!   shape whatever step 2 would have done.
+//! * [`StepOneOnly`]: start and step 1 only (the model's stage functions
+//!   [`ShapeModel::start`] and [`ShapeModel::step1`], clamp included); the
+//!   result is the step-1 shape `mu + A (sigma .* w_step1)`, inside the PCA
+//!   space (Baek and Lee's approach is "conceptually similar to the first
+//!   optimization step", paper section 2).
 //! * [`FeatureAnalysis`]: the start alone (Allen et al.): `w = B [P; 1]` when
 //!   every measurement is given, else the Gaussian conditional of the weights
 //!   on the given ones (as the model's own start). Not clamped by default
@@ -26,9 +23,10 @@ use std::sync::Arc;
 
 use tapeshape_engine::measure::CompiledSet;
 use tapeshape_engine::mesh::Topology;
-use tapeshape_model::{PredictSettings, ShapeModel, Target};
+use tapeshape_model::predict::{Control, PredictProgress};
+use tapeshape_model::{PredictConfig, PredictSettings, ShapeModel, Target};
 
-use super::common::{fit_model, given_targets, predict_err};
+use super::common::{fit_model, given_targets, predict_err, train_err};
 use crate::{Method, MethodError, MethodOutput, TrainingData};
 
 /// The trained model with the operators and topology it predicts with.
@@ -74,32 +72,40 @@ impl Trained {
         &self,
         method: &str,
         targets: &[Option<f64>],
-        settings: &PredictSettings,
+        config: &PredictConfig,
     ) -> Result<tapeshape_model::Prediction, MethodError> {
         let t = self.targets(method, targets)?;
         self.model
-            .predict(&t, self.compiled.as_ref(), &self.topology, settings)
+            .predict(&t, self.compiled.as_ref(), &self.topology, config)
             .map_err(|e| predict_err(method, e.to_string()))
     }
+}
+
+/// `settings` resolved for `method`, or why not.
+fn resolve(method: &str, settings: &PredictSettings) -> Result<PredictConfig, MethodError> {
+    settings
+        .resolve()
+        .map_err(|e| train_err(method, e.to_string()))
 }
 
 /// The paper's method (see the module docs).
 #[derive(Clone)]
 pub struct Ours {
     trained: Trained,
-    /// Prediction settings (`l`, `lambda`, `s`, stopping rules).
-    pub settings: PredictSettings,
+    config: PredictConfig,
 }
 
 impl Ours {
     /// Name in tables.
     pub const NAME: &'static str = "ours";
 
-    /// Fits the shape model on `data` (all PCA components) and predicts with `settings`.
+    /// Fits the shape model on `data` (all PCA components) and predicts with
+    /// `settings`; errors if they are out of range or the fit fails.
     pub fn fit(data: &TrainingData, settings: PredictSettings) -> Result<Self, MethodError> {
+        let config = resolve(Self::NAME, &settings)?;
         Ok(Self {
             trained: Trained::fit(Self::NAME, data)?,
-            settings,
+            config,
         })
     }
 
@@ -111,10 +117,16 @@ impl Ours {
         data: &TrainingData,
         settings: PredictSettings,
     ) -> Result<Self, MethodError> {
+        let config = resolve(Self::NAME, &settings)?;
         Ok(Self {
             trained: Trained::from_model(Self::NAME, model, data)?,
-            settings,
+            config,
         })
+    }
+
+    /// The prediction settings (`l`, `lambda`, `s`, stopping rules).
+    pub fn settings(&self) -> &PredictSettings {
+        self.config.settings()
     }
 
     /// The fitted model.
@@ -128,7 +140,7 @@ impl Ours {
         &self,
         targets: &[Option<f64>],
     ) -> Result<tapeshape_model::Prediction, MethodError> {
-        self.trained.predict(Self::NAME, targets, &self.settings)
+        self.trained.predict(Self::NAME, targets, &self.config)
     }
 }
 
@@ -152,25 +164,20 @@ impl Method for Ours {
 #[derive(Clone)]
 pub struct StepOneOnly {
     trained: Trained,
-    settings: PredictSettings,
+    config: PredictConfig,
 }
 
 impl StepOneOnly {
     /// Name in tables.
     pub const NAME: &'static str = "step 1 only";
 
-    fn step1_settings(mut settings: PredictSettings) -> PredictSettings {
-        settings.step2_stop.max_iters = 0;
-        settings.lambda = 1.0;
-        settings
-    }
-
     /// Fits the shape model on `data`; `settings`' `l`, `s` and step-1
-    /// stopping rules apply, its step-2 settings are replaced (no step 2).
+    /// settings apply (step 2's are not used).
     pub fn fit(data: &TrainingData, settings: PredictSettings) -> Result<Self, MethodError> {
+        let config = resolve(Self::NAME, &settings)?;
         Ok(Self {
             trained: Trained::fit(Self::NAME, data)?,
-            settings: Self::step1_settings(settings),
+            config,
         })
     }
 
@@ -180,15 +187,16 @@ impl StepOneOnly {
         data: &TrainingData,
         settings: PredictSettings,
     ) -> Result<Self, MethodError> {
+        let config = resolve(Self::NAME, &settings)?;
         Ok(Self {
             trained: Trained::from_model(Self::NAME, model, data)?,
-            settings: Self::step1_settings(settings),
+            config,
         })
     }
 
-    /// The settings used (step 2 disabled).
+    /// The settings used (their step-2 part is not used).
     pub fn settings(&self) -> &PredictSettings {
-        &self.settings
+        self.config.settings()
     }
 }
 
@@ -198,16 +206,31 @@ impl Method for StepOneOnly {
     }
 
     fn predict(&self, targets: &[Option<f64>]) -> Result<MethodOutput, MethodError> {
-        let p = self.trained.predict(Self::NAME, targets, &self.settings)?;
-        let w = p.report.weights_step1;
-        let vertices = self
-            .trained
+        let t = &self.trained;
+        let err = |e: tapeshape_model::ModelError| predict_err(Self::NAME, e.to_string());
+        let c = &self.config;
+        let readings = t
             .model
-            .shape(&w)
-            .map_err(|e| predict_err(Self::NAME, e.to_string()))?;
+            .readings(&t.targets(Self::NAME, targets)?, c.readings())
+            .map_err(err)?;
+        let start = t
+            .model
+            .start(&readings, c.start(), t.compiled.as_ref())
+            .map_err(err)?;
+        let step1 = t
+            .model
+            .step1(
+                &readings,
+                &start,
+                c.step1(),
+                c.rounds(),
+                t.compiled.as_ref(),
+                &|_: &PredictProgress| Control::Continue,
+            )
+            .map_err(err)?;
         Ok(MethodOutput {
-            vertices,
-            weights: Some(w),
+            vertices: step1.vertices,
+            weights: Some(step1.weights),
         })
     }
 }

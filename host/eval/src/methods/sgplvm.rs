@@ -51,7 +51,7 @@
 use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
-use tapeshape_model::refine::{minimise, LbfgsImpl, Objective, RunInfo, StopRule};
+use tapeshape_model::lbfgs::{minimise, Lbfgs, LineSearch, Objective, RunInfo, StopRule};
 use tapeshape_model::ShapeModel;
 
 use super::common::{fit_model, given_targets, predict_err, train_err, training_weights};
@@ -73,6 +73,15 @@ pub fn bounded_log(t: f64) -> f64 {
 }
 
 /// Inverse of [`bounded_log`] (for starting values well inside the bound).
+/// The L-BFGS of the model crate with the strong-Wolfe line search (the
+/// likelihoods are far from quadratic; see `tapeshape_model::lbfgs`).
+fn lbfgs(stop: StopRule) -> Lbfgs {
+    Lbfgs {
+        stop,
+        line_search: LineSearch::StrongWolfe,
+    }
+}
+
 fn unbounded_log(l: f64) -> f64 {
     LOG_BOUND * (l / LOG_BOUND).clamp(-0.999, 0.999).atanh()
 }
@@ -449,7 +458,7 @@ impl Sgplvm {
             rel_cost_tol: 1e-10,
             history: 10,
         };
-        let (theta, info) = minimise(&objective, theta, &stop, LbfgsImpl::Argmin)
+        let (theta, info) = minimise(&objective, theta, &lbfgs(stop))
             .map_err(|e| train_err(Self::NAME, format!("learning the latent points: {e}")))?;
         let x = objective.latent(&theta);
         let nx = n * q;
@@ -540,13 +549,13 @@ impl Sgplvm {
         let mut last_err = String::new();
         for &(_, i) in order.iter().take(self.settings.starts) {
             let x0: Vec<f64> = self.x.row(i).iter().copied().collect();
-            match minimise(&obj, x0, &stop, LbfgsImpl::Argmin) {
+            match minimise(&obj, x0, &lbfgs(stop)) {
                 Ok((xs, info)) => {
                     if best.as_ref().is_none_or(|b| info.cost_end < b.1) {
                         best = Some((xs, info.cost_end));
                     }
                 }
-                Err(e) => last_err = e,
+                Err(e) => last_err = e.to_string(),
             }
         }
         best.ok_or_else(|| {

@@ -14,7 +14,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _};
-use tapeshape_engine::predict::{Engine, EstimateReport, Inputs, PredictSettings};
+use tapeshape_engine::predict::{Engine, EstimateReport, Inputs, PredictOptions};
 
 use super::Global;
 use crate::estimate::MeshFormat;
@@ -55,17 +55,18 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
 
-    /// Clamp of the normalised PCA weights, in SDs (paper: 3 synthetic, 10 real).
-    #[arg(long, default_value_t = 3.0)]
-    pub l: f64,
+    /// Clamp of the normalised PCA weights, in SDs (paper: 3 synthetic, 10
+    /// real) [default: 3].
+    #[arg(long)]
+    pub l: Option<f64>,
 
-    /// Weight of the smoothness energy in step 2, in [0, 1] (paper: 0.1).
-    #[arg(long, default_value_t = 0.1)]
-    pub lambda: f64,
+    /// Weight of the smoothness energy in step 2, in [0, 1] [default: 0.1, the paper's].
+    #[arg(long)]
+    pub lambda: Option<f64>,
 
-    /// Rounds of support recomputation per step (paper: 3; 0 = the start only).
-    #[arg(long, default_value_t = 3)]
-    pub s: usize,
+    /// Rounds of support recomputation per step (0 = the start only) [default: 3, the paper's].
+    #[arg(long)]
+    pub s: Option<usize>,
 
     /// List the model's measurements (name, sets, label) and exit.
     #[arg(long)]
@@ -119,13 +120,13 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     if inputs.readings.is_empty() {
         bail!("no measurements given: use --measure NAME=VALUE (e.g. stature=176.5cm) or --measurements FILE; `tapeshape predict --list` shows the names");
     }
-    let settings = PredictSettings {
+    let options = PredictOptions {
         l: args.l,
         lambda: args.lambda,
         s: args.s,
-        ..PredictSettings::default()
+        ..PredictOptions::default()
     };
-    let estimate = engine.predict(&inputs, &settings)?;
+    let estimate = engine.predict(&inputs, &options)?;
     print_report(&estimate.report)?;
     if let Some(path) = &args.report {
         let json = serde_json::to_vec_pretty(&estimate.report).context("encoding the report")?;

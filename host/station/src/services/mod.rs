@@ -63,31 +63,20 @@ pub struct EstimateRequest {
     pub readings: Vec<(String, f64)>,
 }
 
-/// A stage of the estimate, in order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Stage {
-    /// Checking the readings against the model.
-    Check,
-    /// The feature-analysis start.
-    Start,
-    /// L-BFGS over the shape space.
-    Step1,
-    /// L-BFGS over the vertices with smoothness.
-    Step2,
-}
+/// A stage of the estimate: the engine's (one type from the model up).
+pub use tapeshape_engine::predict::PredictStage as Stage;
 
-impl Stage {
-    /// Every stage, in order.
-    pub const ALL: [Stage; 4] = [Stage::Check, Stage::Start, Stage::Step1, Stage::Step2];
+/// The stages the estimating screen lists, in order (`Done` is the result).
+pub const STAGES: [Stage; 4] = [Stage::Check, Stage::Start, Stage::Step1, Stage::Step2];
 
-    /// Operator words for the stage.
-    pub fn label(self) -> &'static str {
-        match self {
-            Stage::Check => "check readings",
-            Stage::Start => "first guess (feature analysis)",
-            Stage::Step1 => "fit shape space",
-            Stage::Step2 => "refine surface",
-        }
+/// Operator words for a stage.
+pub fn stage_label(stage: Stage) -> &'static str {
+    match stage {
+        Stage::Check => "check readings",
+        Stage::Start => "first guess (feature analysis)",
+        Stage::Step1 => "fit shape space",
+        Stage::Step2 => "refine surface",
+        Stage::Done => "done",
     }
 }
 

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-use tapeshape_engine::predict::{Engine, Estimate, Inputs, PredictSettings, PredictStage};
+use tapeshape_engine::predict::{Engine, Estimate, Inputs, PredictOptions};
 use tapeshape_mesh::{Mesh, Topology, Vec3};
 
 use crate::check::{check_reading_with_tolerance, Flag};
@@ -220,7 +220,7 @@ impl Services for StationServices {
             }
         }
         let t0 = Instant::now();
-        let running = match estimate::start_estimate(engine, &inputs, &PredictSettings::default()) {
+        let running = match estimate::start_estimate(engine, &inputs, &PredictOptions::default()) {
             Ok(j) => j,
             Err(e) => {
                 sink(EstimateEvent::Failed(e.to_string()));
@@ -240,14 +240,14 @@ impl Services for StationServices {
                 loop {
                     match running.next_progress(Duration::from_millis(50)) {
                         Some(p) => sink(EstimateEvent::Stage {
-                            stage: stage_of(p.stage),
+                            stage: p.stage,
                             fraction: p.fraction,
                         }),
                         None if running.is_finished() => {
                             // Reports sent just before the end.
                             for p in running.progress() {
                                 sink(EstimateEvent::Stage {
-                                    stage: stage_of(p.stage),
+                                    stage: p.stage,
                                     fraction: p.fraction,
                                 });
                             }
@@ -314,15 +314,6 @@ impl Services for StationServices {
             Err(ServiceError::NoEstimate(_)) => Ok(None),
             Err(e) => Err(e),
         }
-    }
-}
-
-/// The interface's stage for the engine's.
-fn stage_of(s: PredictStage) -> Stage {
-    match s {
-        PredictStage::Start => Stage::Start,
-        PredictStage::Step1 { .. } => Stage::Step1,
-        PredictStage::Step2 { .. } | PredictStage::Done => Stage::Step2,
     }
 }
 

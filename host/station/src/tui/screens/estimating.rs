@@ -7,7 +7,7 @@ use ratatui::text::Line;
 use ratatui::widgets::{Block, Gauge, Paragraph, Wrap};
 use ratatui::Frame;
 
-use crate::services::{EstimateEvent, Stage};
+use crate::services::{stage_label, EstimateEvent, Stage, STAGES};
 use crate::tui::app::{action, AfterOpen, App, Effect, Global, Level, Screen};
 use crate::tui::keys::{code, hints as hints_of, Binding, Hint};
 use crate::tui::theme::{st, Role};
@@ -125,13 +125,13 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let m = app.mono;
     let e = &app.estimate;
     let [stages, gauge, msg] = Layout::vertical([
-        Constraint::Length(Stage::ALL.len() as u16 + 2),
+        Constraint::Length(STAGES.len() as u16 + 2),
         Constraint::Length(3),
         Constraint::Min(3),
     ])
     .areas(area);
     let current = e.stages.last().copied();
-    let lines: Vec<Line> = Stage::ALL
+    let lines: Vec<Line> = STAGES
         .iter()
         .map(|s| {
             let (mark, role) = if !e.stages.contains(s) {
@@ -143,7 +143,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             } else {
                 ("✓ ", Role::Ok)
             };
-            Line::styled(format!(" {mark}{}", s.label()), st(m, role))
+            Line::styled(format!(" {mark}{}", stage_label(*s)), st(m, role))
         })
         .collect();
     frame.render_widget(

@@ -1,0 +1,859 @@
+//! Prediction settings: the record ([`PredictSettings`], serde) and the
+//! configuration it resolves into ([`PredictConfig`]), once.
+//!
+//! Why two levels (ripgrep's low and high arguments): the record is what a
+//! report stores and what a command line or experiment fills; every value
+//! sits inside the stage, and the variant, it belongs to, so a setting that
+//! would be ignored (a reading weight with the paper's step-2 weighting, a
+//! Gauss-Newton noise for L-BFGS) cannot be written. [`PredictSettings::resolve`]
+//! then checks every value (l > 0, lambda in [0, 1], ...) and resolves every
+//! default and cross-stage rule into one typed configuration per stage
+//! ([`StartConfig`], [`Step1Config`], [`Step2Config`], [`RoundsConfig`],
+//! [`ReportConfig`]); the stages read only their own, and nothing re-derives
+//! a setting while predicting.
+//!
+//! Reports written before this form (one flat record of 18 fields) read
+//! back: [`PredictSettings`]' `Deserialize` accepts the old form and
+//! converts it (the two L-BFGS implementation switches are dropped: there
+//! is one L-BFGS now; the continuation's old wall-clock budget becomes the
+//! default evaluation budget).
+
+use serde::{Deserialize, Serialize};
+
+use crate::lbfgs::{Lbfgs, LineSearch, StopRule};
+use crate::MM_PER_M;
+
+/// The settings of a prediction (see the module docs): the paper's `l`
+/// and `s`, and one part per stage. [`PredictSettings::paper`] is the
+/// paper's method exactly; `Default` is what the station uses.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PredictSettings {
+    /// Clamp every normalised weight to `[-l, l]` (paper: 3 synthetic, 10 real).
+    pub l: f64,
+    /// Rounds of support recomputation per step (paper: 3). 0 = start only.
+    pub s: usize,
+    /// A reading with this tolerance (metres) is trusted as an exact one
+    /// (energy weight 1; default 1 mm).
+    pub reference_tolerance: f64,
+    /// Step 1, over the weights.
+    pub step1: Step1Settings,
+    /// Step 2, over the vertices.
+    pub step2: Step2Settings,
+    /// More rounds while readings miss their allowable error (see
+    /// [`Continuation`]). `None` (the paper): exactly `s` rounds per step.
+    pub continuation: Option<Continuation>,
+    /// Warn about any given measurement whose final error exceeds this (mm).
+    pub warn_error_mm: f64,
+}
+
+/// Step 1 (over the K normalised weights).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Step1Settings {
+    /// What each of the `s` rounds minimises, and how.
+    pub solver: Step1Solver,
+    /// How every L-BFGS round of step 1 weights the readings' energies
+    /// (all rounds with [`Step1Solver::Lbfgs`]; with
+    /// [`Step1Solver::GaussNewtonMap`] its continuation rounds and a round
+    /// whose Gauss-Newton step lowered nothing).
+    pub weighting: EnergyWeighting,
+    /// Where the weights are held to `[-l, l]`.
+    pub clamp: Step1Clamp,
+    /// `Some(k)`: step 1 moves only the first k PCA components (the rest keep
+    /// their start values). `None` (the paper): all.
+    pub components: Option<usize>,
+    /// L-BFGS stopping rules (paper: 100 iterations, gradient 1e-8, relative
+    /// change 1e8 eps; history 7). With Gauss-Newton, `max_iters` also caps
+    /// its iterations per round.
+    pub stop: StopRule,
+}
+
+/// What step 1's rounds minimise.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Step1Solver {
+    /// The paper: each round, L-BFGS on `E_m` over the weights.
+    Lbfgs {
+        /// `Some(tau)`: add the training Gaussian's prior `tau^2 |w|^2` to
+        /// `E_m` (a MAP estimate with reading noise tau mm). `None`: the
+        /// paper's `E_m` alone, except that with per-measurement weighting a
+        /// reading given with a tolerance brings in the prior with the
+        /// reference tolerance (else its tolerance would mean nothing once
+        /// step 1 converges).
+        prior_mm: Option<f64>,
+    },
+    /// Each of the `s` rounds is the MAP estimate
+    /// `sum_j ((m_j - T_j) / sd_j)^2 + |w|^2` solved by Gauss-Newton on the
+    /// readings' values with the round's supports held ([`crate::map`]),
+    /// each step backtracked on the re-measured objective (a round whose
+    /// step lowers nothing runs L-BFGS on `E_m` instead); continuation
+    /// rounds run L-BFGS on `E_m` with the same prior.
+    GaussNewtonMap {
+        /// The reading noise `tau` (mm) of an exact reading; a reading with
+        /// a tolerance gets `tau` times its tolerance over the reference
+        /// tolerance. `None`: the reference tolerance (1 mm). Measured on 50
+        /// held-out bodies: `docs/results/predict-sreal.md`.
+        tau_mm: Option<f64>,
+    },
+}
+
+/// Where step 1 holds the weights to `[-l, l]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Step1Clamp {
+    /// The paper: one clamp after step 1, which undoes whatever fit the
+    /// clamped components carried.
+    AfterStep,
+    /// Before every round after the first, the weights beyond `l` are
+    /// clamped and held there, so the following rounds refit the other
+    /// components to the readings (an active-set method); then the clamp
+    /// after step 1 as well.
+    InsideBox,
+}
+
+/// Step 2 (over the vertices).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Step2Settings {
+    /// Weight of the smoothness energy, in `[0, 1]` (paper: 0.1).
+    pub lambda: f64,
+    /// How the readings' energies are weighted.
+    pub weighting: Step2Weighting,
+    /// L-BFGS stopping rules: the paper's, with history 5 (each pair is
+    /// 2 x 3V doubles streamed twice per iteration; 5 instead of 7 pairs cut
+    /// the step-2 time by about a fifth, see `docs/results/predict-bench.md`).
+    pub stop: StopRule,
+}
+
+/// How step 2 weights the readings' energies.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Step2Weighting {
+    /// The paper's `E_m` (see [`EnergyWeighting::Paper`]).
+    Paper,
+    /// Each reading's energy is about `reading_weight` times (its error in
+    /// mm)^2, against `lambda E_s` (mm^2); a reading with a tolerance wider
+    /// than the reference keeps the value step 1 gave it (else the strong
+    /// weight would bend the surface to a doubtful reading).
+    PerMeasurement {
+        /// Default 1e4: on 40 ANSUR II subjects with the ansur set, 1e2 /
+        /// 1e3 / 1e4 / 1e5 passed 76.2 / 90.7 / 92.9 / 91.0 % of readings
+        /// within ISO 20685-1 (weight 1 leaves smoothness in charge: 51 %);
+        /// `docs/results/predict-iso.md`.
+        reading_weight: f64,
+    },
+}
+
+/// Rounds beyond `s` (each: recompute the supports, one more minimisation)
+/// while a given reading's error on the current shape exceeds `share` times
+/// its allowable error ([`crate::predict::Measurer::allowable_error`], at
+/// least its tolerance if it has one), as long as each round cuts the
+/// summed excess by at least 5 % and the step's solver runs have used fewer
+/// than `max_evaluations` objective evaluations. Applies to both steps.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Continuation {
+    /// At most this many rounds beyond `s`, per step.
+    pub max_extra_rounds: usize,
+    /// A reading misses when its error exceeds this share of its allowable error.
+    pub share: f64,
+    /// Allowable error (mm) of a measurement the measurer gives none for.
+    pub default_allowable_mm: f64,
+    /// No new round once the step's runs have used this many objective
+    /// evaluations (counted, so a prediction does the same work under any
+    /// load; reports older than this held a wall-clock budget instead).
+    #[serde(default = "default_max_evaluations")]
+    pub max_evaluations: u64,
+}
+
+/// The evaluation budget of a step's continuation: about what the old 1 s
+/// wall-clock budget allowed step 2 on the bench machine (0.5 ms per
+/// evaluation on the 13,718-vertex template, `docs/results/predict-bench.md`),
+/// and more than the 10 extra rounds of 100 iterations use there.
+pub const DEFAULT_MAX_EVALUATIONS: u64 = 2000;
+
+fn default_max_evaluations() -> u64 {
+    DEFAULT_MAX_EVALUATIONS
+}
+
+impl Default for Continuation {
+    fn default() -> Self {
+        Self {
+            max_extra_rounds: 10,
+            share: 0.5,
+            default_allowable_mm: 4.0,
+            max_evaluations: DEFAULT_MAX_EVALUATIONS,
+        }
+    }
+}
+
+/// How the segment terms of one measurement are weighted in `E_m`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum EnergyWeighting {
+    /// The paper's `E_m`: every segment term `(l^2 - l_t^2)^2` with weight 1
+    /// (times the reading's tolerance weight). A measurement of length `L`
+    /// split into `n` hull or path segments then costs about
+    /// `4 L^2 D^2 / n^3` for an error `D`: a 1 mm error of the stature
+    /// (one segment) weighs about 1e5 times a 1 mm error of a 30-segment
+    /// waist, so L-BFGS fits heights and lengths first and girths last.
+    Paper,
+    /// Each measurement's terms scaled by `L_t^2 / (4 sum_e l_t(e)^4)`, so that
+    /// its energy is about `D^2` (mm^2) whatever its length and number of
+    /// segments: every millimetre of error weighs the same. The same
+    /// minimisers where all targets can be met; a better-conditioned problem.
+    PerMeasurement,
+}
+
+impl Default for PredictSettings {
+    fn default() -> Self {
+        Self {
+            l: 3.0,
+            s: 3,
+            reference_tolerance: 0.001,
+            step1: Step1Settings {
+                solver: Step1Solver::GaussNewtonMap { tau_mm: None },
+                weighting: EnergyWeighting::PerMeasurement,
+                clamp: Step1Clamp::InsideBox,
+                components: None,
+                stop: StopRule::default(),
+            },
+            step2: Step2Settings {
+                lambda: 0.1,
+                weighting: Step2Weighting::PerMeasurement {
+                    reading_weight: 1e4,
+                },
+                stop: StopRule {
+                    history: 5,
+                    ..StopRule::default()
+                },
+            },
+            continuation: Some(Continuation::default()),
+            warn_error_mm: 5.0,
+        }
+    }
+}
+
+impl PredictSettings {
+    /// The paper's method exactly: L-BFGS on `E_m` weighted as the paper
+    /// writes it in both steps, one clamp after step 1, exactly `s` rounds
+    /// per step (l = 3, lambda = 0.1, s = 3, the paper's stopping rules).
+    /// The default differs in five places, measured in
+    /// `docs/results/predict-iso.md` and `docs/results/predict-sreal.md`:
+    /// the Gauss-Newton MAP step 1, per-measurement weighting in step 1 and
+    /// in step 2, the box inside step 1 and the [`Continuation`].
+    pub fn paper() -> Self {
+        let d = Self::default();
+        Self {
+            step1: Step1Settings {
+                solver: Step1Solver::Lbfgs { prior_mm: None },
+                weighting: EnergyWeighting::Paper,
+                clamp: Step1Clamp::AfterStep,
+                ..d.step1
+            },
+            step2: Step2Settings {
+                weighting: Step2Weighting::Paper,
+                ..d.step2
+            },
+            continuation: None,
+            ..d
+        }
+    }
+
+    /// Checks every value and resolves the settings into the configuration
+    /// of each stage (see the module docs).
+    pub fn resolve(&self) -> Result<PredictConfig, SettingsError> {
+        PredictConfig::new(self)
+    }
+}
+
+/// A setting that cannot be used; the message names it and its range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    /// A value that must be positive and finite is not.
+    #[error("{what} must be positive and finite, got {value}")]
+    NotPositive {
+        /// The setting.
+        what: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A value outside its range.
+    #[error("{what} must lie in {range}, got {value}")]
+    OutOfRange {
+        /// The setting.
+        what: &'static str,
+        /// The range, as text.
+        range: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// An L-BFGS run needs at least one correction pair.
+    #[error("{what}: the L-BFGS history must keep at least one pair")]
+    NoHistory {
+        /// The stopping rule.
+        what: &'static str,
+    },
+}
+
+fn positive(what: &'static str, value: f64) -> Result<f64, SettingsError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(SettingsError::NotPositive { what, value })
+    }
+}
+
+fn non_negative(what: &'static str, value: f64) -> Result<f64, SettingsError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(SettingsError::OutOfRange {
+            what,
+            range: "[0, inf)",
+            value,
+        })
+    }
+}
+
+fn stop_rule(what: &'static str, stop: &StopRule) -> Result<StopRule, SettingsError> {
+    non_negative(what, stop.grad_tol)?;
+    non_negative(what, stop.rel_cost_tol)?;
+    if stop.history == 0 {
+        return Err(SettingsError::NoHistory { what });
+    }
+    Ok(*stop)
+}
+
+/// A prediction's configuration, resolved from [`PredictSettings`] once and
+/// valid by construction: one part per stage.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictConfig {
+    settings: PredictSettings,
+    readings: ReadingsConfig,
+    start: StartConfig,
+    step1: Step1Config,
+    step2: Step2Config,
+    rounds: RoundsConfig,
+    report: ReportConfig,
+}
+
+/// How readings become energy weights and noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReadingsConfig {
+    /// A reading with this tolerance (metres) gets weight 1.
+    pub(crate) reference_tolerance: f64,
+}
+
+/// The start: feature analysis or the Gaussian conditional, clamped.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StartConfig {
+    /// The clamp `l` of the normalised weights.
+    pub(crate) l: f64,
+}
+
+/// Step 1, resolved.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Step1Config {
+    pub(crate) solver: Step1Method,
+    /// `Some(l)`: clamp and hold inside the box before every round after
+    /// the first ([`Step1Clamp::InsideBox`]).
+    pub(crate) box_l: Option<f64>,
+    /// The clamp after step 1.
+    pub(crate) l: f64,
+    pub(crate) components: Option<usize>,
+}
+
+/// What step 1's rounds run, with every default resolved.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Step1Method {
+    /// L-BFGS on `E_m` every round.
+    Lbfgs(LbfgsRounds),
+    /// Gauss-Newton MAP in the `s` rounds; L-BFGS (with prior tau) in the
+    /// fallback and continuation rounds.
+    GaussNewtonMap {
+        /// Reading noise of an exact reading, mm.
+        tau_mm: f64,
+        /// Gauss-Newton iterations per round.
+        max_iters: usize,
+        /// The L-BFGS rounds (their prior is always `tau_mm`).
+        lbfgs: LbfgsRounds,
+    },
+}
+
+/// An L-BFGS round of step 1.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct LbfgsRounds {
+    pub(crate) solver: Lbfgs,
+    pub(crate) weighting: EnergyWeighting,
+    pub(crate) prior: Step1Prior,
+}
+
+/// The prior `tau^2 |w|^2` of step 1's L-BFGS rounds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Step1Prior {
+    /// None (the paper's `E_m`).
+    None,
+    /// Always, with this tau (mm).
+    Always(f64),
+    /// Only when a reading is given with a tolerance, with this tau (mm).
+    WithTolerances(f64),
+}
+
+impl Step1Prior {
+    /// Tau (mm) for a prediction whose readings include one with a
+    /// tolerance (`any_tolerance`), or none.
+    pub(crate) fn tau_mm(self, any_tolerance: bool) -> Option<f64> {
+        match self {
+            Self::None => None,
+            Self::Always(t) => Some(t),
+            Self::WithTolerances(t) => any_tolerance.then_some(t),
+        }
+    }
+}
+
+/// Step 2, resolved.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Step2Config {
+    pub(crate) lambda: f64,
+    /// The weighting and its per-measurement scale (1 with the paper's).
+    pub(crate) weighting: (EnergyWeighting, f64),
+    pub(crate) solver: Lbfgs,
+}
+
+/// The rounds of both steps.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoundsConfig {
+    /// The paper's `s`.
+    pub(crate) s: usize,
+    /// Continuation (never with `s = 0`).
+    pub(crate) continuation: Option<Continuation>,
+}
+
+/// What the report warns about.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReportConfig {
+    pub(crate) warn_error_mm: f64,
+    pub(crate) l: f64,
+}
+
+impl RoundsConfig {
+    /// The paper's `s`.
+    pub fn s(&self) -> usize {
+        self.s
+    }
+
+    /// Rounds at most, continuation included.
+    pub(crate) fn max_rounds(&self) -> usize {
+        self.s + self.continuation.map_or(0, |c| c.max_extra_rounds)
+    }
+}
+
+impl PredictConfig {
+    /// Resolves `settings` (see [`PredictSettings::resolve`]).
+    pub fn new(settings: &PredictSettings) -> Result<Self, SettingsError> {
+        let l = positive("l", settings.l)?;
+        let reference = positive("reference_tolerance (metres)", settings.reference_tolerance)?;
+        let reference_mm = reference * MM_PER_M;
+        let warn_error_mm = non_negative("warn_error_mm", settings.warn_error_mm)?;
+        let s1 = &settings.step1;
+        let stop1 = stop_rule("step 1's stopping rule", &s1.stop)?;
+        let lbfgs1 = Lbfgs {
+            stop: stop1,
+            line_search: LineSearch::StrongWolfe,
+        };
+        let solver = match s1.solver {
+            Step1Solver::Lbfgs { prior_mm } => Step1Method::Lbfgs(LbfgsRounds {
+                solver: lbfgs1,
+                weighting: s1.weighting,
+                prior: match prior_mm {
+                    Some(t) => Step1Prior::Always(positive("step 1's prior_mm", t)?),
+                    None if s1.weighting == EnergyWeighting::PerMeasurement => {
+                        Step1Prior::WithTolerances(reference_mm)
+                    }
+                    None => Step1Prior::None,
+                },
+            }),
+            Step1Solver::GaussNewtonMap { tau_mm } => {
+                let tau = match tau_mm {
+                    Some(t) => positive("step 1's tau_mm", t)?,
+                    None => reference_mm,
+                };
+                Step1Method::GaussNewtonMap {
+                    tau_mm: tau,
+                    max_iters: usize::try_from(stop1.max_iters).unwrap_or(usize::MAX),
+                    lbfgs: LbfgsRounds {
+                        solver: lbfgs1,
+                        weighting: s1.weighting,
+                        prior: Step1Prior::Always(tau),
+                    },
+                }
+            }
+        };
+        let s2 = &settings.step2;
+        if !(0.0..=1.0).contains(&s2.lambda) {
+            return Err(SettingsError::OutOfRange {
+                what: "lambda",
+                range: "[0, 1]",
+                value: s2.lambda,
+            });
+        }
+        let weighting2 = match s2.weighting {
+            Step2Weighting::Paper => (EnergyWeighting::Paper, 1.0),
+            Step2Weighting::PerMeasurement { reading_weight } => (
+                EnergyWeighting::PerMeasurement,
+                positive("step 2's reading_weight", reading_weight)?,
+            ),
+        };
+        let continuation = match settings.continuation {
+            Some(c) if settings.s > 0 => {
+                positive("the continuation's share", c.share)?;
+                positive(
+                    "the continuation's default_allowable_mm",
+                    c.default_allowable_mm,
+                )?;
+                Some(c)
+            }
+            _ => None,
+        };
+        Ok(Self {
+            settings: settings.clone(),
+            readings: ReadingsConfig {
+                reference_tolerance: reference,
+            },
+            start: StartConfig { l },
+            step1: Step1Config {
+                solver,
+                box_l: (s1.clamp == Step1Clamp::InsideBox).then_some(l),
+                l,
+                components: s1.components,
+            },
+            step2: Step2Config {
+                lambda: s2.lambda,
+                weighting: weighting2,
+                solver: Lbfgs {
+                    stop: stop_rule("step 2's stopping rule", &s2.stop)?,
+                    line_search: LineSearch::Backtracking,
+                },
+            },
+            rounds: RoundsConfig {
+                s: settings.s,
+                continuation,
+            },
+            report: ReportConfig { warn_error_mm, l },
+        })
+    }
+
+    /// The default settings, resolved.
+    pub fn station() -> Self {
+        Self::new(&PredictSettings::default()).expect("the default settings are valid")
+    }
+
+    /// The paper's settings ([`PredictSettings::paper`]), resolved.
+    pub fn paper() -> Self {
+        Self::new(&PredictSettings::paper()).expect("the paper's settings are valid")
+    }
+
+    /// The settings this was resolved from (what a report records).
+    pub fn settings(&self) -> &PredictSettings {
+        &self.settings
+    }
+
+    /// How readings are weighted.
+    pub fn readings(&self) -> &ReadingsConfig {
+        &self.readings
+    }
+
+    /// The start.
+    pub fn start(&self) -> &StartConfig {
+        &self.start
+    }
+
+    /// Step 1.
+    pub fn step1(&self) -> &Step1Config {
+        &self.step1
+    }
+
+    /// Step 2.
+    pub fn step2(&self) -> &Step2Config {
+        &self.step2
+    }
+
+    /// The rounds of both steps.
+    pub fn rounds(&self) -> &RoundsConfig {
+        &self.rounds
+    }
+
+    /// The report.
+    pub fn report(&self) -> &ReportConfig {
+        &self.report
+    }
+}
+
+impl Default for PredictConfig {
+    /// [`PredictConfig::station`].
+    fn default() -> Self {
+        Self::station()
+    }
+}
+
+impl TryFrom<&PredictSettings> for PredictConfig {
+    type Error = SettingsError;
+    fn try_from(s: &PredictSettings) -> Result<Self, SettingsError> {
+        Self::new(s)
+    }
+}
+
+/// The serde form of [`PredictSettings`]: this version's, or the flat
+/// record of older reports.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum SettingsWire {
+    Current(CurrentWire),
+    Flat(Box<FlatWire>),
+}
+
+#[derive(Deserialize)]
+struct CurrentWire {
+    l: f64,
+    s: usize,
+    reference_tolerance: f64,
+    step1: Step1Settings,
+    step2: Step2Settings,
+    continuation: Option<Continuation>,
+    warn_error_mm: f64,
+}
+
+/// The flat record reports held before the settings had one part per stage.
+#[derive(Deserialize)]
+struct FlatWire {
+    l: f64,
+    lambda: f64,
+    s: usize,
+    stop: StopRule,
+    step2_stop: StopRule,
+    reference_tolerance: f64,
+    warn_error_mm: f64,
+    #[serde(default = "paper_weighting")]
+    step1_weighting: EnergyWeighting,
+    #[serde(default = "paper_weighting")]
+    step2_weighting: EnergyWeighting,
+    #[serde(default = "unit_weight")]
+    step2_reading_weight: f64,
+    #[serde(default)]
+    step1_prior_mm: Option<f64>,
+    #[serde(default)]
+    step1_components: Option<usize>,
+    #[serde(default)]
+    step1_gauss_newton: bool,
+    #[serde(default)]
+    step1_box: bool,
+    #[serde(default)]
+    continuation: Option<Continuation>,
+}
+
+fn paper_weighting() -> EnergyWeighting {
+    EnergyWeighting::Paper
+}
+
+fn unit_weight() -> f64 {
+    1.0
+}
+
+impl From<FlatWire> for PredictSettings {
+    fn from(f: FlatWire) -> Self {
+        Self {
+            l: f.l,
+            s: f.s,
+            reference_tolerance: f.reference_tolerance,
+            step1: Step1Settings {
+                solver: if f.step1_gauss_newton {
+                    Step1Solver::GaussNewtonMap {
+                        tau_mm: f.step1_prior_mm,
+                    }
+                } else {
+                    Step1Solver::Lbfgs {
+                        prior_mm: f.step1_prior_mm,
+                    }
+                },
+                weighting: f.step1_weighting,
+                clamp: if f.step1_box {
+                    Step1Clamp::InsideBox
+                } else {
+                    Step1Clamp::AfterStep
+                },
+                components: f.step1_components,
+                stop: f.stop,
+            },
+            step2: Step2Settings {
+                lambda: f.lambda,
+                weighting: match f.step2_weighting {
+                    EnergyWeighting::Paper => Step2Weighting::Paper,
+                    EnergyWeighting::PerMeasurement => Step2Weighting::PerMeasurement {
+                        reading_weight: f.step2_reading_weight,
+                    },
+                },
+                stop: f.step2_stop,
+            },
+            continuation: f.continuation,
+            warn_error_mm: f.warn_error_mm,
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for PredictSettings {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Ok(match SettingsWire::deserialize(d)? {
+            SettingsWire::Current(c) => Self {
+                l: c.l,
+                s: c.s,
+                reference_tolerance: c.reference_tolerance,
+                step1: c.step1,
+                step2: c.step2,
+                continuation: c.continuation,
+                warn_error_mm: c.warn_error_mm,
+            },
+            SettingsWire::Flat(f) => (*f).into(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_and_paper_resolve() {
+        let d = PredictSettings::default().resolve().unwrap();
+        assert!(matches!(
+            d.step1().solver,
+            Step1Method::GaussNewtonMap { tau_mm, max_iters: 100, .. } if tau_mm == 1.0
+        ));
+        assert_eq!(d.step1().box_l, Some(3.0));
+        assert_eq!(d.step2().weighting, (EnergyWeighting::PerMeasurement, 1e4));
+        assert_eq!(d.step2().solver.line_search, LineSearch::Backtracking);
+        assert_eq!(d.rounds().max_rounds(), 13);
+        let p = PredictSettings::paper().resolve().unwrap();
+        match &p.step1().solver {
+            Step1Method::Lbfgs(r) => {
+                assert_eq!(r.prior, Step1Prior::None);
+                assert_eq!(r.weighting, EnergyWeighting::Paper);
+                assert_eq!(r.solver.line_search, LineSearch::StrongWolfe);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(p.step1().box_l, None);
+        assert_eq!(p.step2().weighting, (EnergyWeighting::Paper, 1.0));
+        assert_eq!(p.rounds().max_rounds(), 3);
+        assert_eq!(p.settings(), &PredictSettings::paper());
+    }
+
+    #[test]
+    fn per_measurement_lbfgs_brings_in_the_prior_for_tolerances_only() {
+        let mut s = PredictSettings::default();
+        s.step1.solver = Step1Solver::Lbfgs { prior_mm: None };
+        let c = s.resolve().unwrap();
+        let Step1Method::Lbfgs(r) = &c.step1().solver else {
+            panic!()
+        };
+        assert_eq!(r.prior.tau_mm(false), None);
+        assert_eq!(r.prior.tau_mm(true), Some(1.0));
+        s.step1.solver = Step1Solver::Lbfgs {
+            prior_mm: Some(3.0),
+        };
+        let c = s.resolve().unwrap();
+        let Step1Method::Lbfgs(r) = &c.step1().solver else {
+            panic!()
+        };
+        assert_eq!(r.prior.tau_mm(false), Some(3.0));
+    }
+
+    #[test]
+    fn bad_values_are_refused_when_resolved_naming_the_setting() {
+        let cases: Vec<(PredictSettings, &str)> = vec![
+            (
+                PredictSettings {
+                    l: 0.0,
+                    ..Default::default()
+                },
+                "l must be positive",
+            ),
+            (
+                PredictSettings {
+                    l: f64::NAN,
+                    ..Default::default()
+                },
+                "l must be positive",
+            ),
+            (
+                PredictSettings {
+                    step2: Step2Settings {
+                        lambda: 1.5,
+                        ..PredictSettings::default().step2
+                    },
+                    ..Default::default()
+                },
+                "lambda must lie in [0, 1]",
+            ),
+            (
+                PredictSettings {
+                    reference_tolerance: -0.001,
+                    ..Default::default()
+                },
+                "reference_tolerance",
+            ),
+            (
+                PredictSettings {
+                    step2: Step2Settings {
+                        weighting: Step2Weighting::PerMeasurement {
+                            reading_weight: 0.0,
+                        },
+                        ..PredictSettings::default().step2
+                    },
+                    ..Default::default()
+                },
+                "reading_weight",
+            ),
+            (
+                PredictSettings {
+                    step1: Step1Settings {
+                        solver: Step1Solver::GaussNewtonMap {
+                            tau_mm: Some(f64::INFINITY),
+                        },
+                        ..PredictSettings::default().step1
+                    },
+                    ..Default::default()
+                },
+                "tau_mm",
+            ),
+            (
+                PredictSettings {
+                    step1: Step1Settings {
+                        stop: StopRule {
+                            history: 0,
+                            ..StopRule::default()
+                        },
+                        ..PredictSettings::default().step1
+                    },
+                    ..Default::default()
+                },
+                "history",
+            ),
+            (
+                PredictSettings {
+                    continuation: Some(Continuation {
+                        share: -1.0,
+                        ..Continuation::default()
+                    }),
+                    ..Default::default()
+                },
+                "share",
+            ),
+        ];
+        for (s, want) in cases {
+            let e = s.resolve().unwrap_err().to_string();
+            assert!(e.contains(want), "{e} (wanted {want})");
+        }
+        // s = 0 turns the continuation off (there are no rounds to continue).
+        let c = PredictSettings {
+            s: 0,
+            ..Default::default()
+        }
+        .resolve()
+        .unwrap();
+        assert_eq!(c.rounds().max_rounds(), 0);
+    }
+}

@@ -1,0 +1,236 @@
+//! Step 2: local deformation beyond the learned space (paper, section Shape
+//! Refinement: "minimizing E_m with respect to p_i").
+//!
+//! `s` rounds ([`super::rounds`]) of: measure the shape, set per-segment
+//! targets, minimise `(1 - lambda) E_m + lambda E_s` over all 3V vertex
+//! coordinates with L-BFGS, `E_s` the smoothness of the displacement from
+//! the step-1 shape. A reading with a tolerance wider than the reference
+//! was weighed against the prior and the other readings in step 1; step 2
+//! keeps the value step 1 gave it (as its target) instead of bending the
+//! surface towards the doubtful reading, which a strong per-measurement
+//! weight would otherwise do.
+//!
+//! Each round starts from a re-measured shape, and where supports jump
+//! (a hull gains points, a cut curve moves to the shoulder) a round can end
+//! worse than it began. A step 2 that ends with a higher `E_m` than step 1
+//! left (each evaluated with targets set on its own shape) keeps, with a
+//! warning, the shape with the lowest `E_m` it measured: a round's start,
+//! or the step-1 shape. (Before, the step-1 shape was the only fallback, so
+//! one last round that went wrong threw away all of step 2: 3 of 40 ANSUR
+//! II subjects then missed nearly every reading,
+//! `docs/results/predict-iso.md`.) A non-finite mesh is an error.
+
+use tapeshape_measure::Measured;
+use tapeshape_mesh::{Topology, Vec3};
+
+use super::progress::{in_run, PredictObserver, PredictProgress, PredictStage};
+use super::readings::Readings;
+use super::rounds::{run_rounds, thresholds, RoundEnd, RoundLog, RoundStep, RoundsSummary};
+use super::settings::{RoundsConfig, Step2Config};
+use super::step1::Step1Shape;
+use super::terms::{to_m, to_mm};
+use super::Measurer;
+use crate::lbfgs::{minimise_watched, RunInfo, Termination};
+use crate::refine::VertexObjective;
+use crate::{ModelError, Result, ShapeModel, MM_PER_M};
+
+/// Step 2's result: the final mesh and the readings measured on it.
+#[derive(Debug, Clone)]
+pub struct Step2Shape {
+    /// The mesh (V vertices, metres, station frame, template topology).
+    pub vertices: Vec<Vec3>,
+    /// The given readings measured on it, in the order of the readings.
+    pub measured: Vec<Measured>,
+    /// The targets step 2 fitted (a doubtful reading's step-1 value, see
+    /// the module docs).
+    pub readings: Readings,
+    /// One per L-BFGS run.
+    pub runs: Vec<RunInfo>,
+    /// How the rounds went.
+    pub rounds: RoundsSummary,
+    /// Things the operator or engineer should know.
+    pub warnings: Vec<String>,
+}
+
+/// Step 2 as the round driver sees it.
+struct Step2Rounds<'a> {
+    model: &'a ShapeModel,
+    measurer: &'a dyn Measurer,
+    readings: &'a Readings,
+    which: Vec<usize>,
+    config: &'a Step2Config,
+    edges: &'a [[u32; 2]],
+    step1_measured: &'a [Measured],
+    /// The step-1 shape (flat, 3V, mm), `E_s`'s reference.
+    reference_mm: Vec<f64>,
+    /// The current vertices (flat, 3V, mm) and as points.
+    x_mm: Vec<f64>,
+    p_mm: Vec<Vec3>,
+    /// The lowest `E_m` among the rounds' starts (round > 0): the round,
+    /// the energy, the shape (mm) and its readings.
+    best: Option<(usize, f64, Vec<f64>, Vec<Measured>)>,
+}
+
+impl RoundStep for Step2Rounds<'_> {
+    const STAGE: PredictStage = PredictStage::Step2;
+
+    fn max_iterations(&self) -> u64 {
+        self.config.solver.stop.max_iters
+    }
+
+    fn measure(&mut self, round: usize) -> Result<Vec<Measured>> {
+        self.p_mm = self
+            .x_mm
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
+        if round == 0 {
+            return Ok(self.step1_measured.to_vec());
+        }
+        let measured = self
+            .model
+            .measure_checked(self.measurer, &to_m(&self.p_mm), &self.which)?;
+        let e =
+            self.model
+                .stage_energy_mm(self.readings, &measured, &self.p_mm, self.config.weighting);
+        if self.best.as_ref().is_none_or(|b| e < b.1) {
+            self.best = Some((round, e, self.x_mm.clone(), measured.clone()));
+        }
+        Ok(measured)
+    }
+
+    fn minimise(
+        &mut self,
+        _round: usize,
+        measured: &[Measured],
+        at: PredictProgress,
+        observer: &dyn PredictObserver,
+        log: &mut RoundLog,
+    ) -> Result<RoundEnd> {
+        let terms = self.model.build_terms(
+            self.readings,
+            measured,
+            &self.p_mm,
+            self.config.weighting,
+            &mut log.warnings,
+            "step 2",
+        );
+        if terms.is_empty() {
+            return Ok(RoundEnd::NothingToFit);
+        }
+        let obj = VertexObjective::new(terms, self.edges, &self.reference_mm, self.config.lambda);
+        let watch = in_run(observer, at);
+        match minimise_watched(&obj, self.x_mm.clone(), &self.config.solver, &watch) {
+            Ok((_, info)) if info.reason == Termination::Interrupted => {
+                Err(ModelError::Cancelled(at.to_string()))
+            }
+            Ok((x_new, info)) => {
+                self.x_mm = x_new;
+                log.runs.push(info);
+                Ok(RoundEnd::Ran)
+            }
+            Err(e) => Ok(RoundEnd::Failed(e)),
+        }
+    }
+}
+
+impl ShapeModel {
+    /// Step 2 from `step1` (see the module docs) on the template
+    /// `topology`: `rounds.s` rounds (and continuation rounds) over the
+    /// vertices. `observer` as in [`ShapeModel::step1`].
+    ///
+    /// Errors if measuring fails, the observer cancels or the mesh is not
+    /// finite; a solver that cannot start, or a result worse than step 1's,
+    /// is a warning.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step2(
+        &self,
+        readings: &Readings,
+        step1: &Step1Shape,
+        config: &Step2Config,
+        rounds: &RoundsConfig,
+        measurer: &dyn Measurer,
+        topology: &Topology,
+        observer: &dyn PredictObserver,
+    ) -> Result<Step2Shape> {
+        let readings2 =
+            readings.with_targets(readings.iter().zip(&step1.measured).map(|(g, m)| {
+                if g.weight < 1.0 {
+                    m.value * MM_PER_M
+                } else {
+                    g.target_mm
+                }
+            }));
+        let reference_mm = to_mm(&step1.vertices).as_flattened().to_vec();
+        let mut step = Step2Rounds {
+            model: self,
+            measurer,
+            readings: &readings2,
+            which: readings.indices(),
+            config,
+            edges: topology.edges(),
+            step1_measured: &step1.measured,
+            x_mm: reference_mm.clone(),
+            reference_mm,
+            p_mm: Vec::new(),
+            best: None,
+        };
+        let thresholds = thresholds(
+            readings,
+            &|j| measurer.allowable_error(j),
+            rounds.continuation,
+        );
+        let (log, summary) = run_rounds(&mut step, rounds, &readings2, &thresholds, observer)?;
+        let RoundLog { runs, mut warnings } = log;
+        let mut x2: Vec<Vec3> = step
+            .x_mm
+            .chunks_exact(3)
+            .map(|c| [c[0] / MM_PER_M, c[1] / MM_PER_M, c[2] / MM_PER_M])
+            .collect();
+        if x2.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(ModelError::NonFinite(
+                "step 2 produced a non-finite mesh".into(),
+            ));
+        }
+        let mut meas2 = self.measure_checked(measurer, &x2, &readings.indices())?;
+        let err2 = self.stage_energy(&readings2, &meas2, &x2, config.weighting);
+        let err1 = self.stage_energy(
+            &readings2,
+            &step1.measured,
+            &step1.vertices,
+            config.weighting,
+        );
+        // Worse than step 1: the lowest E_m step 2 measured, a round's start
+        // or the step-1 shape (see the module docs).
+        if err2 > err1 || err2.is_nan() {
+            match step.best.take().filter(|b| b.1 < err1) {
+                Some((round, e, x_mm, measured)) => {
+                    warnings.push(format!(
+                        "step 2 ended with a higher measurement energy than step 1 (E_m {err2:.4e} vs {err1:.4e} mm^4): kept its shape at the start of round {} (E_m {e:.4e})",
+                        round + 1
+                    ));
+                    x2 = x_mm
+                        .chunks_exact(3)
+                        .map(|c| [c[0] / MM_PER_M, c[1] / MM_PER_M, c[2] / MM_PER_M])
+                        .collect();
+                    meas2 = measured;
+                }
+                None => {
+                    warnings.push(format!(
+                        "step 2 ended with a higher measurement energy than step 1 (E_m {err2:.4e} vs {err1:.4e} mm^4): kept the step-1 shape"
+                    ));
+                    x2.clone_from(&step1.vertices);
+                    meas2.clone_from(&step1.measured);
+                }
+            }
+        }
+        Ok(Step2Shape {
+            vertices: x2,
+            measured: meas2,
+            readings: readings2,
+            runs,
+            rounds: summary,
+            warnings,
+        })
+    }
+}
