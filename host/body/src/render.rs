@@ -440,17 +440,18 @@ pub fn fill_rect(img: &mut RgbImage, x: i64, y: i64, w: i64, h: i64, colour: [u8
     }
 }
 
-/// Saves `img` as PNG at `path`, writing a temporary file in the same folder
-/// first and renaming it, so a reader never sees a half-written picture.
+/// Saves `img` as PNG at `path` with the one atomic, fsynced write
+/// ([`tapeshape_common::fs::write_atomic`]), so a reader never sees a
+/// half-written picture.
 pub fn save_png(img: &RgbImage, path: &Path) -> Result<(), RenderError> {
     let err = |e: &dyn std::fmt::Display| RenderError::Write {
         path: path.to_path_buf(),
         detail: e.to_string(),
     };
-    let tmp = path.with_extension("png.tmp");
-    img.save_with_format(&tmp, image::ImageFormat::Png)
+    let mut png = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut png, image::ImageFormat::Png)
         .map_err(|e| err(&e))?;
-    std::fs::rename(&tmp, path).map_err(|e| err(&e))
+    tapeshape_common::fs::write_atomic(path, png.get_ref()).map_err(|e| err(&e))
 }
 
 #[cfg(test)]

@@ -25,11 +25,11 @@ pub enum AnsurError {
         message: String,
     },
     /// A requested column does not exist.
-    #[error("ANSUR II has no column {column:?}{hint}")]
+    #[error("ANSUR II has no column `{column}`{hint}")]
     UnknownColumn {
         /// The column asked for.
         column: String,
-        /// A suggestion of the closest column, if any.
+        /// `"; did you mean `x`?"` for the closest columns, or empty.
         hint: String,
     },
 }
@@ -224,15 +224,12 @@ impl Ansur {
         if self.columns.iter().any(|c| c == column) {
             return Ok(());
         }
-        let best = self
-            .columns
-            .iter()
-            .min_by_key(|c| strsim::levenshtein(c, column))
-            .map(|c| format!("; did you mean {c:?}?"))
-            .unwrap_or_default();
         Err(AnsurError::UnknownColumn {
             column: column.to_string(),
-            hint: best,
+            hint: tapeshape_common::suggest::did_you_mean(
+                column,
+                self.columns.iter().map(String::as_str),
+            ),
         })
     }
 }
@@ -275,7 +272,7 @@ mod tests {
         assert!((s.mass_kg - 81.5).abs() < 1e-12);
         assert!(a.check_column("stature").is_ok());
         let e = a.check_column("statur").unwrap_err().to_string();
-        assert!(e.contains("\"stature\""), "{e}");
+        assert!(e.contains("did you mean `stature`"), "{e}");
     }
 
     #[test]

@@ -29,10 +29,10 @@
 //!
 //! f32 storage keeps a 400-body file at 66 MB; its round-off (< 0.25 um for
 //! coordinates below 2 m) is far below any tolerance the engine works to.
-//! Files are written to a temporary name and renamed.
+//! Files are written atomically (temporary file, fsync, rename).
 
 use std::collections::BTreeMap;
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -251,38 +251,34 @@ impl Dataset {
         }
     }
 
-    /// Writes the dataset to `path` (temporary name, then rename).
+    /// Writes the dataset to `path` with the one atomic, fsynced write
+    /// ([`tapeshape_common::fs::write_atomic_with`], streamed: a 400-body
+    /// file is 66 MB).
     pub fn write(&self, path: &Path) -> Result<(), DatasetError> {
-        let io = |source| DatasetError::Io {
-            path: path.to_path_buf(),
-            source,
-        };
         let header = serde_json::to_vec(&self.header).expect("dataset header serialises");
-        let tmp = tmp_path(path);
-        {
-            let file = std::fs::File::create(&tmp).map_err(io)?;
-            let mut w = std::io::BufWriter::new(file);
-            w.write_all(MAGIC).map_err(io)?;
-            w.write_all(&FORMAT_VERSION.to_le_bytes()).map_err(io)?;
-            w.write_all(&(header.len() as u64).to_le_bytes())
-                .map_err(io)?;
-            w.write_all(&header).map_err(io)?;
+        tapeshape_common::fs::write_atomic_with(path, |w| {
+            w.write_all(MAGIC)?;
+            w.write_all(&FORMAT_VERSION.to_le_bytes())?;
+            w.write_all(&(header.len() as u64).to_le_bytes())?;
+            w.write_all(&header)?;
             for f in self.topology.faces() {
                 for &v in f {
-                    w.write_all(&v.to_le_bytes()).map_err(io)?;
+                    w.write_all(&v.to_le_bytes())?;
                 }
             }
             for body in &self.bodies {
                 for p in body {
                     for &c in p {
-                        w.write_all(&(c as f32).to_le_bytes()).map_err(io)?;
+                        w.write_all(&(c as f32).to_le_bytes())?;
                     }
                 }
             }
-            let file = w.into_inner().map_err(|e| io(e.into_error()))?;
-            file.sync_all().map_err(io)?;
-        }
-        std::fs::rename(&tmp, path).map_err(io)
+            Ok(())
+        })
+        .map_err(|source| DatasetError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
     }
 
     /// Reads a dataset file, checking magic, version and sizes.
@@ -355,15 +351,6 @@ impl Dataset {
             bodies,
         })
     }
-}
-
-fn tmp_path(path: &Path) -> PathBuf {
-    let mut name = path
-        .file_name()
-        .map(|n| n.to_os_string())
-        .unwrap_or_default();
-    name.push(format!(".tmp-{}", std::process::id()));
-    path.with_file_name(name)
 }
 
 fn created_by() -> String {

@@ -86,11 +86,11 @@ pub const DEFAULT_SETS: [&str; 3] = ["paper34", "ansur", "quick"];
 #[derive(Debug, thiserror::Error)]
 pub enum PredictError {
     /// A measurement name the model does not know.
-    #[error("unknown measurement '{name}'{suggestion}")]
+    #[error("unknown measurement `{name}`{suggestion}")]
     UnknownMeasurement {
         /// The name given.
         name: String,
-        /// ": did you mean ...?" or a pointer to the list.
+        /// "; did you mean `x`?" or a pointer to the list.
         suggestion: String,
     },
     /// A value that is no length (zero, negative, NaN, infinite).
@@ -349,7 +349,8 @@ pub fn train(
 }
 
 /// Writes a model file gzip-compressed when `path` ends in `.gz`, plain
-/// otherwise; temporary name, then rename.
+/// otherwise, with the one atomic, fsynced write
+/// ([`tapeshape_common::fs::write_atomic`]).
 pub fn save_model(file: &ModelFile, path: &std::path::Path) -> Result<(), PredictError> {
     let gz = path.extension().is_some_and(|e| e == "gz");
     if !gz {
@@ -363,8 +364,7 @@ pub fn save_model(file: &ModelFile, path: &std::path::Path) -> Result<(), Predic
     let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
     std::io::Write::write_all(&mut enc, &bytes).map_err(io)?;
     let compressed = enc.finish().map_err(io)?;
-    tapeshape_mesh::io::write_atomic(path, &compressed)
-        .map_err(|e| PredictError::Input(format!("{}: {e}", path.display())))
+    tapeshape_common::fs::write_atomic(path, &compressed).map_err(io)
 }
 
 /// Reads a model file, plain or gzip-compressed (detected by its magic).
@@ -703,31 +703,17 @@ impl Engine {
                 ),
             };
         }
-        let mut scored: Vec<(f64, &str)> = self
-            .set
-            .definitions
-            .iter()
-            .map(|d| {
-                let a = strsim::normalized_damerau_levenshtein(name, &d.name);
-                let b = strsim::jaro_winkler(name, &d.name);
-                (a.max(b), d.name.as_str())
-            })
-            .collect();
-        scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let best = scored.first().map_or(0.0, |s| s.0);
-        let close: Vec<&str> = scored
-            .iter()
-            .take(3)
-            .filter(|s| s.0 > 0.6 && s.0 >= best - 0.05)
-            .map(|s| s.1)
-            .collect();
+        let close = tapeshape_common::suggest::did_you_mean(
+            name,
+            self.set.definitions.iter().map(|d| d.name.as_str()),
+        );
         let suggestion = if close.is_empty() {
             format!(
                 "; the model knows {} measurements (`tapeshape predict --list` shows them)",
                 self.set.len()
             )
         } else {
-            format!(": did you mean {}?", close.join(" or "))
+            close
         };
         PredictError::UnknownMeasurement {
             name: name.to_string(),

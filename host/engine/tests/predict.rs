@@ -301,7 +301,7 @@ fn refuse(pairs: &[&str]) -> PredictError {
 fn bad_input_gets_a_clear_message() {
     let e = refuse(&["statur=176cm"]);
     assert!(matches!(e, PredictError::UnknownMeasurement { .. }), "{e}");
-    assert!(e.to_string().contains("did you mean stature"), "{e}");
+    assert!(e.to_string().contains("did you mean `stature`"), "{e}");
 
     for (v, word) in [("0cm", "positive"), ("-170cm", "positive")] {
         let e = refuse(&[&format!("stature={v}")]);

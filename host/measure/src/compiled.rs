@@ -9,10 +9,11 @@
 use std::sync::Arc;
 
 use rayon::prelude::*;
+use tapeshape_common::suggest::did_you_mean;
 use tapeshape_mesh::{Anatomy, Topology, Vec3};
 
 use crate::cut::{convex_hull, CutError, CutPoint, PartCut};
-use crate::error::{suggest, MeasureError};
+use crate::error::MeasureError;
 use crate::geodesic::{EdgeGraph, GeodesicMethod, PathError};
 use crate::set::{Kind, MeasurementSet, DEFAULT_FLOOR};
 use crate::support::{Measured, Support, SupportPoint};
@@ -83,7 +84,10 @@ impl MeasurementSet {
                         MeasureError::UnknownLandmark {
                             measurement: def.name.clone(),
                             landmark: name.to_string(),
-                            suggestion: suggest(name, anatomy.landmarks.keys().map(String::as_str)),
+                            suggestion: did_you_mean(
+                                name,
+                                anatomy.landmarks.keys().map(String::as_str),
+                            ),
                         }
                     })?;
                     if v as usize >= n_vertices {
@@ -111,7 +115,10 @@ impl MeasurementSet {
                         .ok_or_else(|| MeasureError::UnknownPart {
                             measurement: def.name.clone(),
                             part: part.clone(),
-                            suggestion: suggest(part, anatomy.parts.keys().map(String::as_str)),
+                            suggestion: did_you_mean(
+                                part,
+                                anatomy.parts.keys().map(String::as_str),
+                            ),
                         })?;
                     if let Some(&bad) = t.iter().find(|&&f| f as usize >= n_faces) {
                         return Err(MeasureError::PartTriangleOutOfRange {

@@ -43,8 +43,9 @@
 //! | `height` | `landmark`, optional `floor` | vertical distance from the floor landmark |
 //! | `breadth`, `depth` | `anchor`, `normal`, `parts`, `axis` | hull extent of the plane cut along `axis` |
 
-use crate::error::{suggest, MeasureError};
+use crate::error::MeasureError;
 pub use crate::geodesic::GeodesicMethod;
+use tapeshape_common::suggest::did_you_mean;
 use tapeshape_mesh::Vec3;
 
 /// The built-in sets: `(name, TOML text)`.
@@ -448,7 +449,7 @@ impl MeasurementSet {
             if key != "set" && key != "measurement" {
                 return Err(set_err(format!(
                     "unknown top-level key `{key}`; a set file has a `[set]` table and `[[measurement]]` entries{}",
-                    suggest(key, ["set", "measurement"])
+                    did_you_mean(key, ["set", "measurement"])
                 )));
             }
         }
@@ -535,7 +536,7 @@ fn unknown_set(name: &str) -> MeasureError {
             .map(|(n, _)| *n)
             .collect::<Vec<_>>()
             .join(", "),
-        suggestion: suggest(name, BUILTIN_SETS.iter().map(|(n, _)| *n)),
+        suggestion: did_you_mean(name, BUILTIN_SETS.iter().map(|(n, _)| *n)),
     }
 }
 
@@ -646,7 +647,7 @@ impl<'a> Fields<'a> {
             if !self.used.contains(&key.as_str()) {
                 return Err(self.err(format!(
                     "unknown field `{key}` for this kind{}",
-                    suggest(key, self.used.iter().copied())
+                    did_you_mean(key, self.used.iter().copied())
                 )));
             }
         }
@@ -679,7 +680,7 @@ fn method(f: &mut Fields<'_>) -> Result<GeodesicMethod, MeasureError> {
         Some("unfolded") => Ok(GeodesicMethod::Unfolded),
         Some(other) => Err(f.err(format!(
             "unknown geodesic method `{other}`{}; methods are: edges (Dijkstra on edges, the paper's), unfolded (also straight across triangle pairs)",
-            suggest(other, ["edges", "unfolded"])
+            did_you_mean(other, ["edges", "unfolded"])
         ))),
     }
 }
@@ -773,7 +774,7 @@ fn parse_definition(t: &toml::Table, set: &str, index: usize) -> Result<Definiti
         other => {
             return Err(f.err(format!(
                 "unknown kind `{other}`{}; kinds are: {}",
-                suggest(other, KINDS),
+                did_you_mean(other, KINDS),
                 KINDS.join(", ")
             )))
         }
@@ -787,7 +788,7 @@ fn parse_definition(t: &toml::Table, set: &str, index: usize) -> Result<Definiti
             .ok_or_else(|| {
                 f.err(format!(
                     "unknown class `{c}`{}; classes are: {}",
-                    suggest(&c, Class::ALL.iter().map(|(n, _)| *n)),
+                    did_you_mean(&c, Class::ALL.iter().map(|(n, _)| *n)),
                     Class::ALL.map(|(n, _)| n).join(", ")
                 ))
             })?,
@@ -805,7 +806,7 @@ fn parse_definition(t: &toml::Table, set: &str, index: usize) -> Result<Definiti
         .ok_or_else(|| {
             f.err(format!(
                 "unknown tolerance class `{tol}`{}; classes are: {}",
-                suggest(&tol, Tolerance::ALL.iter().map(|(n, _)| *n)),
+                did_you_mean(&tol, Tolerance::ALL.iter().map(|(n, _)| *n)),
                 Tolerance::ALL.map(|(n, _)| n).join(", ")
             ))
         })?;
@@ -814,7 +815,7 @@ fn parse_definition(t: &toml::Table, set: &str, index: usize) -> Result<Definiti
         if !ANSUR_COLUMNS.contains(&a.as_str()) {
             return Err(f.err(format!(
                 "`ansur` = `{a}` is not an ANSUR II column{}",
-                suggest(a, ANSUR_COLUMNS.iter().copied())
+                did_you_mean(a, ANSUR_COLUMNS.iter().copied())
             )));
         }
     }

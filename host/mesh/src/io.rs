@@ -13,8 +13,9 @@
 //! * Only triangles are accepted when reading. A polygon with more vertices is
 //!   an error unless [`ReadOptions::triangulate_polygons`] asks for fan
 //!   triangulation `(v0, v1, v2), (v0, v2, v3), ...` (vertices untouched).
-//! * Every writer writes a temporary file in the destination's directory and
-//!   renames it over the destination, so a crash never leaves half a file.
+//! * Every writer goes through `tapeshape_common::fs::write_atomic` (a
+//!   temporary file in the destination's folder, fsynced, renamed over the
+//!   destination, the folder fsynced), so a crash never leaves half a file.
 //! * Errors name the file and the line (text) or element (binary).
 //!
 //! The OBJ and PLY parsers are hand-written because they are small, must keep
@@ -22,9 +23,7 @@
 //! exist either re-index vertices per face corner (tobj) or carry far more
 //! than needed; the GLB writer builds its JSON with serde_json.
 
-use std::io::Write as _;
 use std::path::Path;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::{Mesh, MeshError, Vec3};
 
@@ -110,39 +109,13 @@ pub enum PlyPrecision {
     F32,
 }
 
-static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
-
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), MeshIoError> {
-    let shown = path.display().to_string();
-    let io = |source| MeshIoError::Io {
-        path: shown.clone(),
+/// Writes `bytes` to `path` with the one atomic, fsynced write
+/// ([`tapeshape_common::fs::write_atomic`]): a reader never sees half a mesh.
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), MeshIoError> {
+    tapeshape_common::fs::write_atomic(path, bytes).map_err(|source| MeshIoError::Io {
+        path: path.display().to_string(),
         source,
-    };
-    let name = path.file_name().ok_or_else(|| MeshIoError::Format {
-        path: shown.clone(),
-        what: "not a file path".into(),
-    })?;
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let tmp = dir.join(format!(
-        ".{}.tmp-{}-{}",
-        name.to_string_lossy(),
-        std::process::id(),
-        TMP_COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(io)
+    })
 }
 
 fn read_file(path: &Path) -> Result<Vec<u8>, MeshIoError> {
@@ -279,7 +252,7 @@ pub fn obj_string(mesh: &Mesh) -> String {
 
 /// Writes an OBJ file (see [`obj_string`]) atomically.
 pub fn write_obj(mesh: &Mesh, path: impl AsRef<Path>) -> Result<(), MeshIoError> {
-    write_atomic(path.as_ref(), obj_string(mesh).as_bytes())
+    write_file(path.as_ref(), obj_string(mesh).as_bytes())
 }
 
 // ---------------------------------------------------------------- PLY
@@ -641,7 +614,7 @@ pub fn write_ply(
     path: impl AsRef<Path>,
     precision: PlyPrecision,
 ) -> Result<(), MeshIoError> {
-    write_atomic(path.as_ref(), &ply_bytes(mesh, precision))
+    write_file(path.as_ref(), &ply_bytes(mesh, precision))
 }
 
 // ---------------------------------------------------------------- GLB
@@ -797,7 +770,7 @@ pub fn write_glb(mesh: &Mesh, path: impl AsRef<Path>) -> Result<(), MeshIoError>
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "mesh".into());
-    write_atomic(path, &glb_bytes(mesh, &name)?)
+    write_file(path, &glb_bytes(mesh, &name)?)
 }
 
 #[cfg(test)]

@@ -417,6 +417,6 @@ mod tests {
             Err(PredictError::BadValue(_))
         ));
         let err = check_reading(e, &[], ("statue", 1.7)).unwrap_err();
-        assert!(err.to_string().contains("did you mean stature"), "{err}");
+        assert!(err.to_string().contains("did you mean `stature`"), "{err}");
     }
 }

@@ -31,13 +31,12 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
+use tapeshape_common::fs::write_atomic;
 use tapeshape_engine::predict::{
     Control, Engine, Estimate, Input, Inputs, Length, PredictError, PredictOptions,
     PredictProgress, PredictStage, Unit,
 };
-use tapeshape_mesh::io::{
-    write_atomic, write_glb, write_obj, write_ply, MeshIoError, PlyPrecision,
-};
+use tapeshape_mesh::io::{write_glb, write_obj, write_ply, MeshIoError, PlyPrecision};
 use tapeshape_mesh::Mesh;
 
 /// A tape reading as the engine takes it: `metres` as the tape shows it
@@ -349,7 +348,7 @@ pub enum ExportError {
         #[source]
         source: std::io::Error,
     },
-    /// Writing a mesh or the report failed.
+    /// Writing a mesh failed.
     #[error("writing {}: {source}", .path.display())]
     Write {
         /// The file.
@@ -357,6 +356,15 @@ pub enum ExportError {
         /// What went wrong.
         #[source]
         source: MeshIoError,
+    },
+    /// Writing the report failed.
+    #[error("writing {}: {source}", .path.display())]
+    WriteReport {
+        /// The report file.
+        path: PathBuf,
+        /// What went wrong.
+        #[source]
+        source: std::io::Error,
     },
     /// The report could not be encoded as JSON.
     #[error("encoding the report {}: {source}", .path.display())]
@@ -619,7 +627,7 @@ pub fn export_report(
         path: report_path.clone(),
         source,
     })?;
-    write_atomic(&report_path, &json).map_err(|source| ExportError::Write {
+    write_atomic(&report_path, &json).map_err(|source| ExportError::WriteReport {
         path: report_path.clone(),
         source,
     })?;
@@ -721,7 +729,7 @@ mod tests {
         let mut typo = readings();
         typo.readings[1].name = "chets".into();
         let err = start_estimate(e, &typo, &s).unwrap().wait().unwrap_err();
-        assert!(err.to_string().contains("did you mean chest"), "{err}");
+        assert!(err.to_string().contains("did you mean `chest`"), "{err}");
     }
 
     #[test]

@@ -130,7 +130,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     print_report(&estimate.report)?;
     if let Some(path) = &args.report {
         let json = serde_json::to_vec_pretty(&estimate.report).context("encoding the report")?;
-        tapeshape_mesh::io::write_atomic(path, &json)
+        tapeshape_common::fs::write_atomic(path, &json)
             .with_context(|| format!("writing the report {}", path.display()))?;
         outln!("report: {}", path.display())?;
     }
