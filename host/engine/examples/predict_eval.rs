@@ -59,9 +59,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 fn vertex_distance_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
     a.iter()
         .zip(b)
-        .map(|(p, q)| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-        })
+        .map(|(p, q)| tapeshape_mesh::vec3::distance(*p, *q))
         .sum::<f64>()
         / a.len() as f64
         * 1000.0
@@ -71,7 +69,10 @@ fn vertex_distance_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
 fn vertex_rms_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
     (a.iter()
         .zip(b)
-        .map(|(p, q)| (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2))
+        .map(|(p, q)| {
+            let d = tapeshape_mesh::vec3::sub(*p, *q);
+            tapeshape_mesh::vec3::dot(d, d)
+        })
         .sum::<f64>()
         / a.len() as f64)
         .sqrt()

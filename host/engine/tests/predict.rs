@@ -74,9 +74,7 @@ fn vertex_distance(a: &[Vec3], b: &[Vec3]) -> f64 {
     mean(
         &a.iter()
             .zip(b)
-            .map(|(p, q)| {
-                ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-            })
+            .map(|(p, q)| tapeshape_mesh::vec3::distance(*p, *q))
             .collect::<Vec<_>>(),
     )
 }

@@ -915,7 +915,7 @@ mod tests {
         assert_eq!(ez, [0.0, 1.0, 0.0]);
         assert_eq!(ey, [0.0, 0.0, 1.0]);
         // ex = ey x ez (right-handed, proper)
-        assert_eq!(ex, crate::geometry::cross(ey, ez));
+        assert_eq!(ex, crate::vec3::cross(ey, ez));
     }
 
     #[test]

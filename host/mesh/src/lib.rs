@@ -11,12 +11,14 @@
 //!
 //! [`geometry`] holds normals, areas, volume, bounding box, connected
 //! components and the triangle-quality check; [`io`] reads and writes OBJ and
-//! PLY and writes binary glTF (converted to glTF's Y-up frame).
+//! PLY and writes binary glTF (converted to glTF's Y-up frame); [`vec3`] is
+//! the one set of small vector operations on [`Vec3`] every crate uses.
 
 use std::sync::Arc;
 
 pub mod geometry;
 pub mod io;
+pub mod vec3;
 
 pub use geometry::{Aabb, Components, TriangleQuality};
 pub use io::MeshIoError;

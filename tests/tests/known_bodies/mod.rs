@@ -96,9 +96,7 @@ pub fn mean_distance_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
     let sum: f64 = a
         .iter()
         .zip(b)
-        .map(|(p, q)| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-        })
+        .map(|(p, q)| tapeshape_mesh::vec3::distance(*p, *q))
         .sum();
     1000.0 * sum / a.len() as f64
 }

@@ -19,26 +19,17 @@
 
 use std::collections::BTreeMap;
 
+use tapeshape_mesh::vec3::{add, cross, dot, norm, scale, sub};
+
 use super::pack::{Pack, Side, BODY_END, N_BASE, N_KEPT};
 use super::AnatomyError;
 
 type V3 = [f64; 3];
 
-fn sub(a: V3, b: V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn add(a: V3, b: V3) -> V3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn scale(a: V3, s: f64) -> V3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn norm(a: V3) -> f64 {
-    dot(a, a).sqrt()
-}
+/// `a / |a|` as the derivation has always computed it, `a` times the
+/// reciprocal of its length (not `vec3::normalize`'s division per
+/// component, which rounds differently: the committed landmarks and parts
+/// are what this derivation gives, checked by `tests/anatomy_data.rs`).
 fn unit(a: V3) -> V3 {
     scale(a, 1.0 / norm(a))
 }
@@ -361,11 +352,7 @@ impl Ctx<'_> {
             }
             let [a, b, c] = t.map(|i| self.p[i as usize]);
             let (e1, e2) = (sub(b, a), sub(c, a));
-            let pv = [
-                d[1] * e2[2] - d[2] * e2[1],
-                d[2] * e2[0] - d[0] * e2[2],
-                d[0] * e2[1] - d[1] * e2[0],
-            ];
+            let pv = cross(d, e2);
             let det = dot(e1, pv);
             if det.abs() < 1e-15 {
                 return false;
@@ -375,11 +362,7 @@ impl Ctx<'_> {
             if !(0.0..=1.0).contains(&u) {
                 return false;
             }
-            let qv = [
-                tv[1] * e1[2] - tv[2] * e1[1],
-                tv[2] * e1[0] - tv[0] * e1[2],
-                tv[0] * e1[1] - tv[1] * e1[0],
-            ];
+            let qv = cross(tv, e1);
             let v = dot(d, qv) / det;
             if v < 0.0 || u + v > 1.0 {
                 return false;
@@ -968,14 +951,7 @@ fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
             for t in c.pack.triangles.iter().filter(|t| t.contains(&k)) {
                 let [a, b, cc] = t.map(p);
                 let (u, w) = (sub(b, a), sub(cc, a));
-                n = add(
-                    n,
-                    [
-                        u[1] * w[2] - u[2] * w[1],
-                        u[2] * w[0] - u[0] * w[2],
-                        u[0] * w[1] - u[1] * w[0],
-                    ],
-                );
+                n = add(n, cross(u, w));
             }
             unit(n)
         };

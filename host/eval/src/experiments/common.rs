@@ -378,9 +378,7 @@ pub fn vertex_distance_mm(a: &[Vec3], b: &[Vec3]) -> (f64, f64) {
     let d: Vec<f64> = a
         .iter()
         .zip(b)
-        .map(|(p, q)| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt() * 1000.0
-        })
+        .map(|(p, q)| tapeshape_engine::mesh::vec3::distance(*p, *q) * 1000.0)
         .collect();
     (
         d.iter().sum::<f64>() / d.len().max(1) as f64,
