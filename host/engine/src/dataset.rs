@@ -9,9 +9,9 @@
 //! adds small random local variation (every non-`measure-*` local change
 //! drawn from N(0, `local_variation_sd`)), then fits the generator's
 //! continuous parameters to that subject's real dimensions ([`FIT_TARGETS`])
-//! by damped Gauss-Newton with exact derivatives: measurement gradients from
-//! the supports (`tapeshape-measure`) chained with the generator's Jacobian
-//! (`tapeshape-body`). The result records, per body, the subject id, the
+//! with the one generator fitter ([`crate::fit`]: damped Gauss-Newton with
+//! exact derivatives, measurement gradients from the supports chained with
+//! the generator's Jacobian). The result records, per body, the subject id, the
 //! parameters and the fitted and achieved values.
 //!
 //! # File format (`.tsd`, version 1)
@@ -36,7 +36,6 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -47,6 +46,7 @@ use tapeshape_measure::{CompiledSet, MeasurementSet};
 use tapeshape_mesh::{Mesh, Topology, Vec3};
 
 use crate::ansur::{Ansur, Sex, Split, Subject};
+use crate::fit::{FitOptions, Free, GeneratorFitter, Stop};
 use crate::seeded;
 
 /// Magic bytes at the start of a dataset file.
@@ -124,6 +124,9 @@ pub enum DatasetError {
     /// ANSUR II could not be read.
     #[error(transparent)]
     Ansur(#[from] crate::ansur::AnsurError),
+    /// The generator fit failed.
+    #[error(transparent)]
+    Fit(#[from] crate::fit::FitError),
 }
 
 /// What a dataset holds.
@@ -371,233 +374,47 @@ pub fn race_weights(dod_race: u32) -> (f64, f64, f64) {
     }
 }
 
-/// Everything the fit needs, built once per run.
-struct Fitter<'a> {
-    body: &'a BodyModel,
-    set: CompiledSet,
-    /// Index in `set` of each FIT_TARGETS entry.
-    index: Vec<usize>,
-    /// Parameter per FIT_TARGETS entry, then the free macros.
-    params: Vec<Param>,
-    /// Prior SD per parameter.
-    prior_sd: Vec<f64>,
+/// The population's generator fit: the [`FIT_TARGETS`] of the `ansur` set
+/// (compiled for the template) and the parameters they drive, with their
+/// prior SDs: 1 for the height, 0.6 for each `measure-*` driver, the
+/// [`FREE_MACROS`] and [`FREE_LOCALS`] with theirs. Returns each target's
+/// index in `set` and the free parameters.
+fn fit_problem(set: &CompiledSet) -> Result<(Vec<usize>, Vec<Free>), DatasetError> {
+    let mut index = Vec::new();
+    let mut free = Vec::new();
+    let local =
+        |label: &str| Param::local(label).map_err(|e| DatasetError::Settings(e.to_string()));
+    for (column, driver) in FIT_TARGETS {
+        index.push(set.set().index_of(column).ok_or_else(|| {
+            DatasetError::Settings(format!("the ansur measurement set has no {column:?}"))
+        })?);
+        free.push(if *driver == "@height" {
+            Free {
+                param: Param::Height,
+                prior_sd: 1.0,
+            }
+        } else {
+            Free {
+                param: local(driver)?,
+                prior_sd: 0.6,
+            }
+        });
+    }
+    for &(param, prior_sd) in FREE_MACROS {
+        free.push(Free { param, prior_sd });
+    }
+    for l in FREE_LOCALS {
+        free.push(Free {
+            param: local(l)?,
+            prior_sd: 0.5,
+        });
+    }
+    Ok((index, free))
 }
 
-impl<'a> Fitter<'a> {
-    fn new(body: &'a BodyModel) -> Result<Self, DatasetError> {
-        let full = MeasurementSet::builtin("ansur")?;
-        let anatomy = tapeshape_body::anatomy::anatomy();
-        let set = full.compile(body.topology(), &anatomy)?;
-        let mut index = Vec::new();
-        let mut params = Vec::new();
-        let mut prior_sd = Vec::new();
-        for (column, driver) in FIT_TARGETS {
-            index.push(set.set().index_of(column).ok_or_else(|| {
-                DatasetError::Settings(format!("the ansur measurement set has no {column:?}"))
-            })?);
-            if *driver == "@height" {
-                params.push(Param::Height);
-                prior_sd.push(1.0);
-            } else {
-                params
-                    .push(Param::local(driver).map_err(|e| DatasetError::Settings(e.to_string()))?);
-                prior_sd.push(0.6);
-            }
-        }
-        for &(p, sd) in FREE_MACROS {
-            params.push(p);
-            prior_sd.push(sd);
-        }
-        for l in FREE_LOCALS {
-            params.push(Param::local(l).map_err(|e| DatasetError::Settings(e.to_string()))?);
-            prior_sd.push(0.5);
-        }
-        Ok(Self {
-            body,
-            set,
-            index,
-            params,
-            prior_sd,
-        })
-    }
-
-    fn get(ph: &Phenotype, lc: &LocalChanges, p: Param) -> f64 {
-        match p {
-            Param::Height => ph.height,
-            Param::Weight => ph.weight,
-            Param::Muscle => ph.muscle,
-            Param::Proportions => ph.proportions,
-            Param::Local(i) => lc.get(&LocalChanges::labels()[i]),
-            _ => unreachable!(
-                "only height, weight, muscle, proportions and local changes are fitted"
-            ),
-        }
-    }
-
-    fn set_param(ph: &mut Phenotype, lc: &mut LocalChanges, p: Param, v: f64) {
-        match p {
-            Param::Height => ph.height = v.clamp(0.0, 1.0),
-            Param::Weight => ph.weight = v.clamp(0.0, 1.0),
-            Param::Muscle => ph.muscle = v.clamp(0.0, 1.0),
-            Param::Proportions => ph.proportions = v.clamp(0.0, 1.0),
-            Param::Local(i) => {
-                lc.set(&LocalChanges::labels()[i], v.clamp(-1.0, 1.0))
-                    .expect("label from the list");
-            }
-            _ => unreachable!(
-                "only height, weight, muscle, proportions and local changes are fitted"
-            ),
-        }
-    }
-
-    /// Measures the fit targets (metres) on `vertices`, with their gradients.
-    fn measure(
-        &self,
-        vertices: &[Vec3],
-        with_gradient: bool,
-    ) -> Result<(Vec<f64>, Vec<Vec<Vec3>>), DatasetError> {
-        let mut values = Vec::with_capacity(self.index.len());
-        let mut grads = Vec::new();
-        for &i in &self.index {
-            let m = self.set.measure_one(i, vertices)?;
-            values.push(m.value);
-            if with_gradient {
-                grads.push(m.support.gradient(vertices));
-            }
-        }
-        Ok((values, grads))
-    }
-
-    /// Fits `ph`/`lc` so the body's FIT_TARGETS match `target` (metres).
-    fn fit(
-        &self,
-        ph: &mut Phenotype,
-        lc: &mut LocalChanges,
-        target: &[f64],
-        max_iterations: usize,
-    ) -> Result<(Mesh, Vec<f64>, usize), DatasetError> {
-        let np = self.params.len();
-        let nm = target.len();
-        let theta0: Vec<f64> = self.params.iter().map(|&p| Self::get(ph, lc, p)).collect();
-        // Residuals in millimetres; the prior's weight makes one prior SD cost
-        // as much as a 1 mm misfit, so the fit is close to exact wherever the
-        // generator can reach the subject.
-        let mut mu = 1e-3;
-        let mut mesh = self.body.generate(ph, lc)?;
-        let (mut values, mut grads) = self.measure(&mesh.vertices, true)?;
-        let cost = |values: &[f64], ph: &Phenotype, lc: &LocalChanges| -> f64 {
-            let m: f64 = values
-                .iter()
-                .zip(target)
-                .map(|(v, t)| ((v - t) * 1000.0).powi(2))
-                .sum();
-            let p: f64 = self
-                .params
-                .iter()
-                .enumerate()
-                .map(|(j, &p)| ((Self::get(ph, lc, p) - theta0[j]) / self.prior_sd[j]).powi(2))
-                .sum();
-            m + p
-        };
-        let mut current = cost(&values, ph, lc);
-        let mut iterations = 0;
-        for it in 0..max_iterations {
-            iterations = it + 1;
-            let jac = self.body.jacobian(ph, lc, &self.params)?;
-            // J (nm + np) x np, residual r.
-            let mut j = DMatrix::<f64>::zeros(nm + np, np);
-            let mut r = DVector::<f64>::zeros(nm + np);
-            for i in 0..nm {
-                r[i] = (values[i] - target[i]) * 1000.0;
-                for (k, dk) in jac.iter().enumerate() {
-                    let mut s = 0.0;
-                    for (g, d) in grads[i].iter().zip(dk) {
-                        s += g[0] * d[0] + g[1] * d[1] + g[2] * d[2];
-                    }
-                    j[(i, k)] = s * 1000.0;
-                }
-            }
-            for (k, &p) in self.params.iter().enumerate() {
-                r[nm + k] = (Self::get(ph, lc, p) - theta0[k]) / self.prior_sd[k];
-                j[(nm + k, k)] = 1.0 / self.prior_sd[k];
-            }
-            // Parameters at a bound whose step points outwards are held
-            // (active set); the rest take the damped Gauss-Newton step.
-            let bounds: Vec<(f64, f64)> = self
-                .params
-                .iter()
-                .map(|p| {
-                    if matches!(p, Param::Local(_)) {
-                        (-1.0, 1.0)
-                    } else {
-                        (0.0, 1.0)
-                    }
-                })
-                .collect();
-            let now: Vec<f64> = self.params.iter().map(|&p| Self::get(ph, lc, p)).collect();
-            let mut accepted = false;
-            for _ in 0..8 {
-                let mut free: Vec<bool> = vec![true; np];
-                let mut step = DVector::<f64>::zeros(np);
-                for _ in 0..np {
-                    let idx: Vec<usize> = (0..np).filter(|&k| free[k]).collect();
-                    let jf = j.select_columns(idx.iter());
-                    let jtj = jf.transpose() * &jf;
-                    let g = jf.transpose() * &r;
-                    let mut a = jtj.clone();
-                    for d in 0..idx.len() {
-                        a[(d, d)] += mu * (1.0 + jtj[(d, d)]);
-                    }
-                    let Some(sf) = a.cholesky().map(|c| c.solve(&(-&g))) else {
-                        break;
-                    };
-                    step.fill(0.0);
-                    for (d, &k) in idx.iter().enumerate() {
-                        step[k] = sf[d];
-                    }
-                    let blocked: Vec<usize> = idx
-                        .iter()
-                        .copied()
-                        .filter(|&k| {
-                            (now[k] <= bounds[k].0 + 1e-12 && step[k] < 0.0)
-                                || (now[k] >= bounds[k].1 - 1e-12 && step[k] > 0.0)
-                        })
-                        .collect();
-                    if blocked.is_empty() {
-                        break;
-                    }
-                    for k in blocked {
-                        free[k] = false;
-                    }
-                }
-                let (mut ph2, mut lc2) = (*ph, lc.clone());
-                for (k, &p) in self.params.iter().enumerate() {
-                    Self::set_param(&mut ph2, &mut lc2, p, now[k] + step[k]);
-                }
-                let mesh2 = self.body.generate(&ph2, &lc2)?;
-                let (values2, _) = self.measure(&mesh2.vertices, false)?;
-                let c2 = cost(&values2, &ph2, &lc2);
-                if c2 < current {
-                    (*ph, *lc, mesh, current) = (ph2, lc2, mesh2, c2);
-                    mu = (mu * 0.3).max(1e-7);
-                    accepted = true;
-                    break;
-                }
-                mu *= 10.0;
-            }
-            (values, grads) = self.measure(&mesh.vertices, true)?;
-            let worst = values
-                .iter()
-                .zip(target)
-                .map(|(v, t)| (v - t).abs())
-                .fold(0.0, f64::max);
-            if !accepted || worst < 0.2e-3 {
-                break;
-            }
-        }
-        Ok((mesh, values, iterations))
-    }
-}
+/// A population body stops fitting when every target is within this many
+/// metres of its subject's value (0.2 mm).
+const FIT_TOLERANCE_M: f64 = 0.2e-3;
 
 /// Draws `n` train-split subjects aged 18..=90, men with probability
 /// `male_fraction`, without replacement per sex while subjects last.
@@ -655,7 +472,22 @@ pub fn generate_population(
     }
     let body = BodyModel::shared()?;
     let ansur = Ansur::get()?;
-    let fitter = Fitter::new(body)?;
+    let set = MeasurementSet::builtin("ansur")?
+        .compile(body.topology(), &tapeshape_body::anatomy::anatomy())?;
+    let (index, free) = fit_problem(&set)?;
+    let fitter = GeneratorFitter::new(
+        body,
+        &set,
+        &free,
+        FitOptions {
+            max_iterations: settings.max_iterations,
+            stop: Stop {
+                misfit_m: FIT_TOLERANCE_M,
+                min_relative_gain: 0.0,
+                min_step: 0.0,
+            },
+        },
+    )?;
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
     let subjects = draw_subjects(ansur, settings, &mut rng);
     let done = std::sync::atomic::AtomicUsize::new(0);
@@ -711,8 +543,15 @@ pub fn generate_population(
                 .iter()
                 .map(|(c, _)| s.dim(c).unwrap_or(f64::NAN))
                 .collect();
-            let (mesh, achieved, iterations) =
-                fitter.fit(&mut ph, &mut lc, &target, settings.max_iterations)?;
+            let targets: Vec<(usize, f64)> = index.iter().copied().zip(target.clone()).collect();
+            let fitted = fitter.fit(&targets, &[(ph, lc)])?;
+            let (ph, lc, mesh, achieved, iterations) = (
+                fitted.phenotype,
+                fitted.local_changes,
+                fitted.mesh,
+                fitted.values,
+                fitted.iterations,
+            );
             let fit = FitRecord {
                 target_mm: FIT_TARGETS
                     .iter()

@@ -13,6 +13,7 @@
 
 pub mod ansur;
 pub mod dataset;
+pub mod fit;
 pub mod predict;
 pub mod seeded;
 pub mod stats;
