@@ -3,7 +3,7 @@
 //! tables and figures, and the paper's method must beat feature analysis
 //! and SGPLVM in every column (the checks the CLI enforces).
 //!
-//! About a minute in the dev profile (engine crates are opt-level 3 there).
+//! About a minute in the dev profile (the numeric crates are opt-level 3 there).
 
 use tapeshape_eval::experiments::{all_methods, run, Experiment, Options};
 

@@ -1,6 +1,6 @@
-//! Triangle meshes for the tapeshape engine.
+//! Triangle meshes for tapeshape.
 //!
-//! Frame and units everywhere in the engine: **metres, f64, Z up, feet at
+//! Frame and units everywhere in tapeshape: **metres, f64, Z up, feet at
 //! z = 0, +Y towards the body's front**, +X towards the body's right side (see
 //! the MakeHuman pack's README, section 2.4). Vertex order is the template's
 //! order and is never changed by any function in this crate.

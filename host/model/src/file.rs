@@ -30,7 +30,7 @@ pub struct TemplateInfo {
 }
 
 /// The measurement set definitions, kept as the text they were read from so
-/// that this crate does not parse them (the engine does, with tapeshape-measure).
+/// that this crate does not parse them (`tapeshape-estimator` does, with `tapeshape-measure`).
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MeasurementSetText {
     /// Set name (e.g. `paper34`).

@@ -3,9 +3,9 @@
 //! Why a thread and a channel: an estimate takes a fraction of a second to a
 //! few seconds (more on a loaded kiosk), and the terminal interface must keep
 //! drawing, reading keys and talking to the tape meanwhile. [`start_estimate`]
-//! runs [`Engine::predict_observed`] on its own thread; the interface polls
+//! runs [`Estimator::predict_observed`] on its own thread; the interface polls
 //! [`EstimateJob::progress`] for stage and fraction and may
-//! [`EstimateJob::cancel`] at any time (the engine stops within one objective
+//! [`EstimateJob::cancel`] at any time (the estimator stops within one objective
 //! evaluation, a few milliseconds). The channel is `std::sync::mpsc`, so a
 //! caller needs no async runtime.
 //!
@@ -20,7 +20,7 @@
 //! restart is exported again after it without estimating again
 //! ([`export_report`]).
 //!
-//! Layer: a service (with `crate::check`), over the engine; it knows nothing
+//! Layer: a service (with `crate::check`), over the estimator; it knows nothing
 //! of sessions, screens or the store.
 
 use std::path::{Path, PathBuf};
@@ -32,14 +32,14 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 use tapeshape_common::fs::write_atomic;
-use tapeshape_engine::predict::{
-    Control, Engine, Estimate, Input, Inputs, Length, PredictError, PredictOptions,
+use tapeshape_estimator::{
+    Control, Estimate, Estimator, Input, Inputs, Length, PredictError, PredictOptions,
     PredictProgress, PredictStage, Unit,
 };
 use tapeshape_mesh::io::{write_glb, write_obj, write_ply, MeshIoError, PlyPrecision};
 use tapeshape_mesh::Mesh;
 
-/// A tape reading as the engine takes it: `metres` as the tape shows it
+/// A tape reading as the estimator takes it: `metres` as the tape shows it
 /// (centimetres, so that a unit slip is explained in the tape's unit), with
 /// its standard uncertainty in metres (`None`: the measurement's ISO class).
 pub fn tape_input(name: impl Into<String>, metres: f64, tolerance: Option<f64>) -> Input {
@@ -70,7 +70,7 @@ pub enum EstimateError {
     /// The operator cancelled it.
     #[error("estimate cancelled ({0})")]
     Cancelled(String),
-    /// The engine refused the readings or failed; the message says why and
+    /// The estimator refused the readings or failed; the message says why and
     /// what to do.
     #[error(transparent)]
     Predict(PredictError),
@@ -117,22 +117,22 @@ pub struct EstimateJob {
 const MIN_STEP: f64 = 0.005;
 
 /// Starts estimating a body from `inputs` on a new thread with
-/// `options` (the pipeline and the paper's l, lambda, s). `engine` is any shared handle to an engine
-/// (`Engine::default_model()` gives a `&'static Engine`; an `Arc<Engine>`
+/// `options` (the pipeline and the paper's l, lambda, s). `estimator` is any shared handle to an estimator
+/// (`Estimator::default_model()` gives a `&'static Estimator`; an `Arc<Estimator>`
 /// works too).
 ///
 /// The readings are checked before the thread starts (so a typo fails at
 /// once): a value or tolerance that is not a positive finite length is an
-/// error ([`Inputs`] already refuses a name given twice); the engine's own
+/// error ([`Inputs`] already refuses a name given twice); the estimator's own
 /// checks (unknown names, unit slips, contradictions) run on the thread and
 /// end the job with [`EstimateError::Predict`].
 pub fn start_estimate<E>(
-    engine: E,
+    estimator: E,
     inputs: &Inputs,
     options: &PredictOptions,
 ) -> Result<EstimateJob, EstimateError>
 where
-    E: std::ops::Deref<Target = Engine> + Send + 'static,
+    E: std::ops::Deref<Target = Estimator> + Send + 'static,
 {
     check_inputs(inputs)?;
     let inputs = inputs.clone();
@@ -165,7 +165,7 @@ where
                 }
                 Control::Continue
             };
-            Ok(engine.predict_observed(&inputs, &options, &observer)?)
+            Ok(estimator.predict_observed(&inputs, &options, &observer)?)
         })
         .map_err(|e| EstimateError::Panicked(format!("could not start a thread: {e}")))?;
     Ok(EstimateJob {
@@ -432,7 +432,7 @@ pub struct ReportTimings {
 
 /// The JSON report [`export`] writes, and the station stores with the
 /// estimate (then with no files and `exported_at_ms` 0). The parts the
-/// engine owns (`model`, `engine`) are kept as JSON values, so that a report
+/// estimator owns (`model`, `estimator`) are kept as JSON values, so that a report
 /// stored by one version of the program reads back in another.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ExportReport {
@@ -454,7 +454,7 @@ pub struct ExportReport {
     pub plausibility: ReportPlausibility,
     /// Everything the operator or an engineer should know.
     pub warnings: Vec<String>,
-    /// The model used (the engine's `ModelSummary`).
+    /// The model used (the estimator's `ModelSummary`).
     pub model: serde_json::Value,
     /// Stage timings.
     pub timings: ReportTimings,
@@ -462,13 +462,13 @@ pub struct ExportReport {
     pub mesh: (usize, usize),
     /// The files written with this report (names, same folder).
     pub files: Vec<String>,
-    /// The engine's full report (stage values, L-BFGS runs, settings: its
+    /// The estimator's full report (stage values, L-BFGS runs, settings: its
     /// `EstimateReport`).
-    pub engine: serde_json::Value,
+    pub estimator: serde_json::Value,
 }
 
-/// A plausibility label of the engine's report by its serialised name
-/// (`Typical`, `Unusual`, `Implausible`: the engine's stable word for it),
+/// A plausibility label of the estimator's report by its serialised name
+/// (`Typical`, `Unusual`, `Implausible`: the estimator's stable word for it),
 /// as the report and the interface write it.
 fn label_word(label: &impl Serialize) -> String {
     match serde_json::to_value(label) {
@@ -477,7 +477,7 @@ fn label_word(label: &impl Serialize) -> String {
     }
 }
 
-/// Plain data as a JSON value. Serialising the engine's report types cannot
+/// Plain data as a JSON value. Serialising the estimator's report types cannot
 /// fail (no maps with non-string keys, no failing `Serialize`); if it ever
 /// did, the report would hold `null` for that part, never lose the station's.
 fn json_value(v: &impl Serialize) -> serde_json::Value {
@@ -545,7 +545,7 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
             estimate.mesh.faces().len(),
         ),
         files,
-        engine: json_value(r),
+        estimator: json_value(r),
     }
 }
 
@@ -640,8 +640,8 @@ mod tests {
     use super::*;
     use tapeshape_mesh::io::ReadOptions;
 
-    fn engine() -> &'static Engine {
-        Engine::default_model().expect("embedded model")
+    fn estimator() -> &'static Estimator {
+        Estimator::default_model().expect("embedded model")
     }
 
     const READINGS: [(&str, f64); 4] = [
@@ -661,7 +661,7 @@ mod tests {
 
     #[test]
     fn a_job_reports_monotone_progress_and_returns_the_engines_body() {
-        let e = engine();
+        let e = estimator();
         let settings = PredictOptions::default();
         let job = start_estimate(e, &readings(), &settings).unwrap();
         let mut seen = Vec::new();
@@ -684,8 +684,8 @@ mod tests {
 
     #[test]
     fn cancelling_ends_the_job_with_cancelled() {
-        let e = engine();
-        // Cancel before it starts: the engine stops at its first report.
+        let e = estimator();
+        // Cancel before it starts: the estimator stops at its first report.
         let job = start_estimate(e, &readings(), &PredictOptions::default()).unwrap();
         job.cancel();
         assert!(matches!(job.wait(), Err(EstimateError::Cancelled(_))));
@@ -709,7 +709,7 @@ mod tests {
 
     #[test]
     fn bad_readings_fail_before_or_inside_the_job_with_a_clear_error() {
-        let e = engine();
+        let e = estimator();
         let s = PredictOptions::default();
         let mut twice = readings();
         let err = twice.push(tape_input("chest", 0.99, None)).unwrap_err();
@@ -734,7 +734,7 @@ mod tests {
 
     #[test]
     fn export_writes_every_format_and_a_report_that_reads_back() {
-        let e = engine();
+        let e = estimator();
         let est = e.predict(&readings(), &PredictOptions::default()).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let folder = dir.path().join("out/nested");
@@ -813,7 +813,7 @@ mod tests {
 
     #[test]
     fn an_unwritable_folder_is_a_clear_error() {
-        let e = engine();
+        let e = estimator();
         let est = e.predict(&readings(), &PredictOptions::default()).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("a-file");

@@ -186,7 +186,7 @@ async fn demo_stores_exactly_what_the_simulated_tape_confirmed() {
         .and_then(|w| w.parse().ok())
         .unwrap_or_else(|| panic!("no subject id in the demo's output:\n{stdout}"));
     assert_eq!(id % 4, 0, "the demo customer must come from the test split");
-    let subject = tapeshape_engine::ansur::Ansur::get()
+    let subject = tapeshape_population::ansur::Ansur::get()
         .unwrap()
         .subject(id)
         .unwrap();

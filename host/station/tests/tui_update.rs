@@ -1,5 +1,5 @@
 //! The operator flow through `update` alone: no terminal, no tape, no
-//! engine. Each test states what an operator would see go wrong if the
+//! estimator. Each test states what an operator would see go wrong if the
 //! transition were wrong.
 
 mod tui_fixture;
@@ -10,7 +10,7 @@ use tapeshape::store::{Mark, ReadingId, SessionId, SessionStatus};
 use tapeshape::tui::app::{Effect, Event, ItemState, Pilot, Screen};
 use tapeshape::tui::operator::{Autopilot, SimOperator};
 use tapeshape::tui::ShowLength as _;
-use tapeshape_engine::predict::Unit;
+use tapeshape_estimator::Unit;
 use tui_fixture::*;
 
 #[test]

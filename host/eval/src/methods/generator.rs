@@ -6,7 +6,7 @@
 //! age, muscle, weight, height, proportions and cup size, and MakeHuman's
 //! `measure-*` local changes (the modifiers of its measure tab: bust, waist,
 //! hips, neck, arm and leg lengths and girths, ...), each bounded to its valid
-//! range ([`tapeshape_engine::body::Param::range`]). Race weights and breast
+//! range ([`tapeshape_body::Param::range`]). Race weights and breast
 //! firmness stay at the default (they are not measurements' business); the
 //! other 236 local changes stay at 0 (a parametric tool's user does not
 //! sculpt).
@@ -20,7 +20,7 @@
 //! range costs as much as a 1 mm misfit).
 //!
 //! Optimiser: the one generator fitter the population generation also uses
-//! ([`tapeshape_engine::fit::GeneratorFitter`]: damped Gauss-Newton with
+//! ([`tapeshape_population::fit::GeneratorFitter`]: damped Gauss-Newton with
 //! exact derivatives and bounds as an active set), here with the prior SD
 //! `span_k / sqrt(prior_weight)`, two starts (the default phenotype as a man
 //! and as a woman; the lower cost wins) and a start stopping when a step
@@ -31,10 +31,10 @@
 
 use std::sync::Arc;
 
-use tapeshape_engine::body::{BodyModel, LocalChanges, Param, Phenotype};
-use tapeshape_engine::fit::{FitError, FitOptions, Free, GeneratorFitter, Stop};
-use tapeshape_engine::measure::CompiledSet;
-use tapeshape_engine::mesh::Vec3;
+use tapeshape_body::{BodyModel, LocalChanges, Param, Phenotype};
+use tapeshape_measure::CompiledSet;
+use tapeshape_mesh::Vec3;
+use tapeshape_population::fit::{FitError, FitOptions, Free, GeneratorFitter, Stop};
 
 use super::common::{given_targets, measurement_names, predict_err, train_err};
 use crate::{Method, MethodError, MethodOutput, TrainingData};

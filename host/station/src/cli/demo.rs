@@ -341,7 +341,7 @@ pub struct DemoCustomer {
     /// Who it is, for the operator.
     pub description: String,
     /// Sex, when the customer is a real person (`None`: synthetic lengths).
-    pub sex: Option<tapeshape_engine::ansur::Sex>,
+    pub sex: Option<tapeshape_population::ansur::Sex>,
 }
 
 /// The ANSUR II test-split subject number `seed` (modulo the split's size)
@@ -351,7 +351,7 @@ pub fn demo_customer(
     set: &tapeshape_measure::MeasurementSet,
     seed: u64,
 ) -> anyhow::Result<DemoCustomer> {
-    use tapeshape_engine::ansur::{Ansur, Split};
+    use tapeshape_population::ansur::{Ansur, Split};
     let ansur = Ansur::get()?;
     let test: Vec<_> = ansur.subjects(None, Split::Test).collect();
     let subject = test[(seed % test.len() as u64) as usize];
@@ -407,13 +407,13 @@ fn population_customer(
     set: &tapeshape_measure::MeasurementSet,
     seed: u64,
 ) -> anyhow::Result<Option<DemoCustomer>> {
-    use tapeshape_engine::dataset::{generate_population, PopulationSettings};
-    use tapeshape_engine::predict::Engine;
-    let engine = Engine::default_model()?;
+    use tapeshape_estimator::Estimator;
+    use tapeshape_population::{generate_population, PopulationSettings};
+    let estimator = Estimator::default_model()?;
     let Some(index): Option<Vec<usize>> = set
         .definitions
         .iter()
-        .map(|d| engine.set().index_of(&d.name))
+        .map(|d| estimator.set().index_of(&d.name))
         .collect()
     else {
         return Ok(None);
@@ -429,10 +429,10 @@ fn population_customer(
     let population = generate_population(&settings, &|_, _| {})
         .context("generating the demo's simulated customer")?;
     let body = &population.bodies[0];
-    if body.len() != engine.topology().n_vertices() {
+    if body.len() != estimator.topology().n_vertices() {
         return Ok(None);
     }
-    let measured = engine
+    let measured = estimator
         .compiled()
         .measure(body)
         .context("measuring the demo's simulated customer")?;
@@ -450,7 +450,7 @@ fn population_customer(
     let record = population.header.bodies.first();
     let sex = record
         .and_then(|r| r.sex)
-        .unwrap_or(tapeshape_engine::ansur::Sex::Female);
+        .unwrap_or(tapeshape_population::ansur::Sex::Female);
     Ok(Some(DemoCustomer {
         values,
         description: format!(

@@ -6,7 +6,7 @@
 //! a link event, estimate progress, a tick) and returns the [`Effect`]s the
 //! runner must perform (set the link's naming, create a session, start an
 //! estimate, export ...). Results of effects come back as events. So tests
-//! drive the whole operator flow without a terminal, a tape or an engine.
+//! drive the whole operator flow without a terminal, a tape or an estimator.
 //!
 //! This file keeps what is not one screen's: the keys that work anywhere
 //! (help, device, history, quit), routing a key to the screen shown, the
@@ -25,7 +25,7 @@
 use std::path::PathBuf;
 
 use crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
-use tapeshape_engine::predict::Unit;
+use tapeshape_estimator::Unit;
 use tapeshape_protocol::UnitShown;
 
 use crate::estimate::MeshFormat;

@@ -10,7 +10,7 @@
 //! operator ([`operator`]) is one more event source, switched off by the
 //! first key a person presses. Checking and estimating sit behind
 //! [`crate::services::Services`], so the interface thread never waits on the
-//! engine and tests run without one.
+//! estimator and tests run without one.
 //!
 //! Layer: a front end. It uses the services, the session layer, the link and
 //! the store, never the command line (`crate::cli`).

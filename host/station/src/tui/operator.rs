@@ -16,7 +16,7 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use crossterm::event::{KeyCode, KeyEvent};
-use tapeshape_engine::ansur::Sex;
+use tapeshape_population::ansur::Sex;
 use tapeshape_protocol::UnitShown;
 use tapeshape_sim::pty::TtyStream;
 use tapeshape_sim::tape::{play, Script, Step, TapeLine, TapeTiming};

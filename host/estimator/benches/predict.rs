@@ -1,14 +1,14 @@
-//! Engine-level benchmarks of issue 4 (criterion): one prediction from a
+//! Estimator-level benchmarks of issue 4 (criterion): one prediction from a
 //! body's paper34 values with the embedded default model (full template,
 //! 13,718 vertices, s = 3, input checks included), and training on 400
 //! bodies with paper34 + ansur + quick.
 //!
-//! Why at the engine level: this is what the station pays per customer
+//! Why at the estimator level: this is what the station pays per customer
 //! (checks, the union model's conditional start, both steps); the model
 //! crate's own bench measures the method in isolation.
 //!
 //! ```text
-//! RAYON_NUM_THREADS=1 taskset -c 0 cargo bench -p tapeshape-engine --bench predict
+//! RAYON_NUM_THREADS=1 taskset -c 0 cargo bench -p tapeshape-estimator --bench predict
 //! ```
 //!
 //! Training reads `$TAPESHAPE_BENCH_DATASET` (default
@@ -16,13 +16,11 @@
 //! --seed 1`); without it the training bench is skipped with a message.
 
 use criterion::{criterion_main, Criterion};
-use tapeshape_engine::dataset::{generate_population, Dataset, PopulationSettings};
-use tapeshape_engine::predict::{
-    train, Engine, Inputs, PredictOptions, TrainSettings, DEFAULT_SETS,
-};
+use tapeshape_estimator::{train, Estimator, Inputs, PredictOptions, TrainSettings, DEFAULT_SETS};
+use tapeshape_population::{generate_population, Dataset, PopulationSettings};
 
 fn bench_predict(c: &mut Criterion) {
-    let engine = Engine::default_model().expect("embedded default model");
+    let estimator = Estimator::default_model().expect("embedded default model");
     let body = generate_population(
         &PopulationSettings {
             n: 1,
@@ -32,14 +30,14 @@ fn bench_predict(c: &mut Criterion) {
         &|_, _| {},
     )
     .expect("generate a body");
-    let stats = engine.file().model.measurement_stats();
+    let stats = estimator.file().model.measurement_stats();
     let mut inputs = Inputs::new();
-    for name in engine.set_members("paper34").expect("paper34") {
-        let j = engine.set().index_of(&name).expect("member");
+    for name in estimator.set_members("paper34").expect("paper34") {
+        let j = estimator.set().index_of(&name).expect("member");
         if stats[j].1 <= 1e-9 {
             continue; // constant on the training set (landmarks on one vertex)
         }
-        let v = engine
+        let v = estimator
             .compiled()
             .measure_one(j, &body.bodies[0])
             .expect("measure")
@@ -50,7 +48,7 @@ fn bench_predict(c: &mut Criterion) {
     let mut g = c.benchmark_group("predict");
     g.sample_size(20);
     g.bench_function("paper34_default_model_s3", |b| {
-        b.iter(|| engine.predict(&inputs, &settings).expect("predict"))
+        b.iter(|| estimator.predict(&inputs, &settings).expect("predict"))
     });
     g.finish();
 }

@@ -9,11 +9,11 @@
 //! they were drawn from, to tight bounds. The 1,000-body comparison with the
 //! whole train split is in docs/population.md (`tapeshape dataset stats`).
 
-use tapeshape_engine::ansur::{Ansur, Sex};
-use tapeshape_engine::body::{anatomy::anatomy, BodyModel};
-use tapeshape_engine::dataset::{generate_population, PopulationSettings, CHECKED_COLUMNS};
-use tapeshape_engine::measure::MeasurementSet;
-use tapeshape_engine::stats::mean_sd_corr;
+use tapeshape_body::{anatomy::anatomy, BodyModel};
+use tapeshape_measure::MeasurementSet;
+use tapeshape_population::ansur::{Ansur, Sex};
+use tapeshape_population::statistics::mean_sd_corr;
+use tapeshape_population::{generate_population, PopulationSettings, CHECKED_COLUMNS};
 
 #[test]
 fn a_generated_population_reproduces_its_subjects_statistics_per_sex() {

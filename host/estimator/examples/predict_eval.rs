@@ -1,20 +1,20 @@
 //! Prediction experiments of issue 4, printing markdown tables.
 //!
 //! Why an example and not a test: these take minutes on hundreds of bodies;
-//! the reduced versions run in CI (`host/engine/tests/predict.rs`); the full
+//! the reduced versions run in CI (`host/estimator/tests/predict.rs`); the full
 //! evaluation suite is `tapeshape eval` (`host/eval`).
 //!
 //! ```text
 //! # the paper's S_real: train on a population, predict held-out bodies from paper34
-//! cargo run --release -p tapeshape-engine --example predict_eval -- sreal \
+//! cargo run --release -p tapeshape-estimator --example predict_eval -- sreal \
 //!     --train /work/out/pop400s1.tsd --heldout /work/out/held60s2.tsd --n 50 \
-//!     [--model host/engine/models/default.tsm.gz]
+//!     [--model host/estimator/models/default.tsm.gz]
 //! # ISO 20685-1 pass shares for quick and ansur (generated bodies and ANSUR test subjects)
-//! cargo run --release -p tapeshape-engine --example predict_eval -- iso \
+//! cargo run --release -p tapeshape-estimator --example predict_eval -- iso \
 //!     --heldout /work/out/held60s2.tsd --n 50 --ansur 100 --subsets 3 [--model FILE] [--l 3]
 //! # why a reading misses: start / step 1 / step 2 values and the L-BFGS runs of
 //! # every failing prediction (held-out bodies, or ANSUR test subjects without --heldout)
-//! cargo run --release -p tapeshape-engine --example predict_eval -- diag \
+//! cargo run --release -p tapeshape-estimator --example predict_eval -- diag \
 //!     [--heldout FILE] --n 10 --set quick [--bodies 0,3] [--all 1]
 //! ```
 //!
@@ -28,17 +28,17 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use rand::SeedableRng;
-use tapeshape_engine::ansur::{Ansur, Split};
-use tapeshape_engine::dataset::Dataset;
-use tapeshape_engine::measure::Kind;
-use tapeshape_engine::mesh::Vec3;
-use tapeshape_engine::predict::{
-    train, Engine, Inputs, PredictError, PredictOptions, PredictSettings, TrainSettings,
+use tapeshape_estimator::{
+    train, Estimator, Inputs, PredictError, PredictOptions, PredictSettings, TrainSettings,
 };
-use tapeshape_engine::seeded;
+use tapeshape_measure::Kind;
+use tapeshape_mesh::Vec3;
 use tapeshape_model::predict::{
     Continuation, EnergyWeighting, Step1Clamp, Step1Solver, Step2Weighting,
 };
+use tapeshape_population::ansur::{Ansur, Split};
+use tapeshape_population::seeded;
+use tapeshape_population::Dataset;
 
 fn arg(args: &[String], name: &str) -> Option<String> {
     args.iter()
@@ -81,11 +81,16 @@ fn vertex_rms_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
 
 /// Per-class errors of one prediction from paper34: (euclidean, planar
 /// circumference, geodesic loops as the sum of their 4 members).
-fn paper34_errors(engine: &Engine, names: &[String], truth: &[f64], pred: &[f64]) -> [Vec<f64>; 3] {
+fn paper34_errors(
+    estimator: &Estimator,
+    names: &[String],
+    truth: &[f64],
+    pred: &[f64],
+) -> [Vec<f64>; 3] {
     let mut out: [Vec<f64>; 3] = Default::default();
     let mut groups: BTreeMap<String, f64> = BTreeMap::new();
     for (k, name) in names.iter().enumerate() {
-        let d = &engine.set().definitions[engine.set().index_of(name).expect("known")];
+        let d = &estimator.set().definitions[estimator.set().index_of(name).expect("known")];
         let e = (pred[k] - truth[k]).abs() * 1000.0;
         match (&d.kind, &d.group) {
             (_, Some(g)) => *groups.entry(g.clone()).or_default() += e,
@@ -100,11 +105,11 @@ fn paper34_errors(engine: &Engine, names: &[String], truth: &[f64], pred: &[f64]
 /// Drops measurements that are constant (zero SD) on the training set, e.g.
 /// a geodesic between two landmarks that fall on the same vertex: no reading
 /// can inform them. Says which.
-fn usable(engine: &Engine, names: Vec<String>) -> Vec<String> {
-    let stats = engine.file().model.measurement_stats();
+fn usable(estimator: &Estimator, names: Vec<String>) -> Vec<String> {
+    let stats = estimator.file().model.measurement_stats();
     let (keep, drop): (Vec<String>, Vec<String>) = names
         .into_iter()
-        .partition(|n| stats[engine.set().index_of(n).expect("member")].1 > 1e-9);
+        .partition(|n| stats[estimator.set().index_of(n).expect("member")].1 > 1e-9);
     if !drop.is_empty() {
         eprintln!(
             "left out (constant on the training set): {}",
@@ -128,7 +133,7 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     ))?;
     let n: usize = arg(args, "--n").map_or(Ok(50), |s| s.parse())?;
     let n = n.min(heldout.len());
-    let mut engines: Vec<(String, Engine)> = Vec::new();
+    let mut estimators: Vec<(String, Estimator)> = Vec::new();
     if let Some(t) = arg(args, "--train") {
         let data = Dataset::read(&PathBuf::from(&t))?;
         let t0 = Instant::now();
@@ -139,14 +144,14 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             t0.elapsed().as_secs_f64(),
             file.model.n_components()
         );
-        engines.push((
+        estimators.push((
             format!("paper34 only, {} bodies, all components", data.len()),
-            Engine::new(file, &t)?,
+            Estimator::new(file, &t)?,
         ));
     }
     if let Some(m) = arg(args, "--model") {
-        let e = Engine::load(&PathBuf::from(&m))?;
-        engines.push((
+        let e = Estimator::load(&PathBuf::from(&m))?;
+        estimators.push((
             format!(
                 "{} ({} components, {})",
                 m,
@@ -163,15 +168,15 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("| model | method | Euclidean (14) mm | circumference, planar (4) mm | circumference, geodesic loops (4) mm | all circumferences mm | vertex distance mm | flipped / degenerate vs step-1 shape | flipped / degenerate vs true body (true body vs PCA mean) | mean time s |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
-    for (label, engine) in &engines {
-        let names = usable(engine, engine.set_members("paper34")?);
+    for (label, estimator) in &estimators {
+        let names = usable(estimator, estimator.set_members("paper34")?);
         let idx: Vec<usize> = names
             .iter()
-            .map(|n| engine.set().index_of(n).expect("member"))
+            .map(|n| estimator.set().index_of(n).expect("member"))
             .collect();
         // The floor: no method restricted to the PCA space gets closer to a held-out body
         // than its orthogonal projection onto that space.
-        let pca = &engine.file().model.pca;
+        let pca = &estimator.file().model.pca;
         let floor: Vec<f64> = (0..n)
             .map(|i| {
                 let flat: Vec<f64> = heldout.bodies[i].iter().flatten().copied().collect();
@@ -191,7 +196,7 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         // the weights); no method that only uses the training Gaussian can do
         // better on average.
         {
-            let model = &engine.file().model;
+            let model = &estimator.file().model;
             let m = model.n_measurements();
             let k = model.n_components();
             let wanted: Vec<usize> = (m..m + k).collect();
@@ -223,33 +228,34 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             let (mut rms, mut rms1) = (vec![], vec![]);
             let (mut flipped, mut degenerate) = (0, 0);
             let (mut own_flipped, mut own_degenerate, mut truth_vs_mean) = (0, 0, 0);
-            let mean_shape = engine
-                .file()
-                .model
-                .shape(&vec![0.0; engine.file().model.n_components()])?;
+            let mean_shape =
+                estimator
+                    .file()
+                    .model
+                    .shape(&vec![0.0; estimator.file().model.n_components()])?;
             for i in 0..n {
                 let body = &heldout.bodies[i];
                 let truth: Vec<f64> = idx
                     .iter()
-                    .map(|&j| engine.compiled().measure_one(j, body).map(|m| m.value))
+                    .map(|&j| estimator.compiled().measure_one(j, body).map(|m| m.value))
                     .collect::<Result<_, _>>()?;
                 let mut inputs = Inputs::new();
                 for (name, v) in names.iter().zip(&truth) {
                     inputs.insert_metres(name, *v)?;
                 }
                 let t0 = Instant::now();
-                let est = engine.predict(&inputs, &settings)?;
+                let est = estimator.predict(&inputs, &settings)?;
                 tt.push(t0.elapsed().as_secs_f64());
                 let pred: Vec<f64> = idx
                     .iter()
                     .map(|&j| {
-                        engine
+                        estimator
                             .compiled()
                             .measure_one(j, &est.mesh.vertices)
                             .map(|m| m.value)
                     })
                     .collect::<Result<_, _>>()?;
-                let [a, b, c] = paper34_errors(engine, &names, &truth, &pred);
+                let [a, b, c] = paper34_errors(estimator, &names, &truth, &pred);
                 eu.extend(a);
                 ci.extend(b);
                 lo.extend(c);
@@ -257,12 +263,12 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 rms.push(vertex_rms_mm(&est.mesh.vertices, body));
                 if s > 0 {
                     let w1 = &est.report.prediction.weights_step1;
-                    let x1 = engine.file().model.shape(w1)?;
+                    let x1 = estimator.file().model.shape(w1)?;
                     vd1.push(vertex_distance_mm(&x1, body));
                     rms1.push(vertex_rms_mm(&x1, body));
                 }
                 let (f, d) = tapeshape_model::predict::triangle_changes(
-                    engine.topology(),
+                    estimator.topology(),
                     body,
                     &est.mesh.vertices,
                 );
@@ -272,7 +278,7 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 own_flipped += pl.flipped_triangles;
                 own_degenerate += pl.degenerate_triangles;
                 let (f0, _) = tapeshape_model::predict::triangle_changes(
-                    engine.topology(),
+                    estimator.topology(),
                     body,
                     &mean_shape,
                 );
@@ -320,13 +326,13 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
 type Shares = BTreeMap<String, (usize, usize)>;
 
 fn tally(
-    engine: &Engine,
+    estimator: &Estimator,
     inputs: &Inputs,
     settings: &PredictOptions,
     shares: &mut Shares,
     refused: &mut Vec<String>,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let est = match engine.predict(inputs, settings) {
+    let est = match estimator.predict(inputs, settings) {
         Ok(e) => e,
         Err(e @ (PredictError::Contradiction(_) | PredictError::OutOfRange(_))) => {
             refused.push(e.to_string());
@@ -338,9 +344,12 @@ fn tally(
         Err(e) => return Err(e.into()),
     };
     for r in &inputs.readings {
-        let j = engine.set().index_of(&r.name).expect("known");
-        let tol = engine.set().definitions[j].tolerance.mm();
-        let v = engine.compiled().measure_one(j, &est.mesh.vertices)?.value;
+        let j = estimator.set().index_of(&r.name).expect("known");
+        let tol = estimator.set().definitions[j].tolerance.mm();
+        let v = estimator
+            .compiled()
+            .measure_one(j, &est.mesh.vertices)?
+            .value;
         let e = shares.entry(r.name.clone()).or_default();
         e.1 += 1;
         if ((v - r.value.metres) * 1000.0).abs() <= tol {
@@ -350,16 +359,16 @@ fn tally(
     Ok(())
 }
 
-fn print_shares(title: &str, engine: &Engine, shares: &Shares, refused: &[String]) {
+fn print_shares(title: &str, estimator: &Estimator, shares: &Shares, refused: &[String]) {
     println!("\n{title}\n");
     println!("| measurement | ISO tolerance mm | passed | share |");
     println!("|---|---|---|---|");
     let (mut p, mut t) = (0, 0);
     for (name, (ok, n)) in shares {
-        let j = engine.set().index_of(name).expect("known");
+        let j = estimator.set().index_of(name).expect("known");
         println!(
             "| {name} | {} | {ok}/{n} | {:.1} % |",
-            engine.set().definitions[j].tolerance.mm(),
+            estimator.set().definitions[j].tolerance.mm(),
             100.0 * *ok as f64 / *n as f64
         );
         p += ok;
@@ -379,10 +388,10 @@ fn print_shares(title: &str, engine: &Engine, shares: &Shares, refused: &[String
 }
 
 fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
-    let engine = match arg(args, "--model") {
-        Some(m) => Engine::load(&PathBuf::from(m))?,
-        None => Engine::new(
-            Engine::default_model()?.file().clone(),
+    let estimator = match arg(args, "--model") {
+        Some(m) => Estimator::load(&PathBuf::from(m))?,
+        None => Estimator::new(
+            Estimator::default_model()?.file().clone(),
             "embedded default model",
         )?,
     };
@@ -405,10 +414,10 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         .transpose()?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
     for set in ["quick", "ansur"] {
-        let names = usable(&engine, engine.set_members(set)?);
+        let names = usable(&estimator, estimator.set_members(set)?);
         let idx: Vec<usize> = names
             .iter()
-            .map(|n| engine.set().index_of(n).expect("member"))
+            .map(|n| estimator.set().index_of(n).expect("member"))
             .collect();
         if let Some(h) = &heldout {
             let (mut full, mut sub, mut rf, mut rs) =
@@ -416,13 +425,13 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             for body in h.bodies.iter().take(n) {
                 let truth: Vec<f64> = idx
                     .iter()
-                    .map(|&j| engine.compiled().measure_one(j, body).map(|m| m.value))
+                    .map(|&j| estimator.compiled().measure_one(j, body).map(|m| m.value))
                     .collect::<Result<_, _>>()?;
                 let mut inputs = Inputs::new();
                 for (name, v) in names.iter().zip(&truth) {
                     inputs.insert_metres(name, *v)?;
                 }
-                tally(&engine, &inputs, &settings, &mut full, &mut rf)?;
+                tally(&estimator, &inputs, &settings, &mut full, &mut rf)?;
                 if set == "quick" {
                     for _ in 0..n_subsets {
                         let mut order: Vec<usize> = (0..names.len()).collect();
@@ -434,7 +443,7 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                         for &a in &order[..k] {
                             inputs.insert_metres(&names[a], truth[a])?;
                         }
-                        tally(&engine, &inputs, &settings, &mut sub, &mut rs)?;
+                        tally(&estimator, &inputs, &settings, &mut sub, &mut rs)?;
                     }
                 }
             }
@@ -444,14 +453,14 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                     n.min(h.len()),
                     names.len()
                 ),
-                &engine,
+                &estimator,
                 &full,
                 &rf,
             );
             if set == "quick" {
                 print_shares(
                     &format!("quick: random subsets (3 to 8 measurements), {n_subsets} per body"),
-                    &engine,
+                    &estimator,
                     &sub,
                     &rs,
                 );
@@ -464,15 +473,16 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             for subject in ansur.subjects(None, Split::Test).take(n_ansur) {
                 let mut inputs = Inputs::new();
                 for name in &names {
-                    let d = &engine.set().definitions[engine.set().index_of(name).expect("member")];
+                    let d = &estimator.set().definitions
+                        [estimator.set().index_of(name).expect("member")];
                     if let Some(v) = d.ansur.as_deref().and_then(|c| subject.dim(c)) {
                         inputs.insert_metres(name, v)?;
                     }
                 }
                 used += 1;
-                tally(&engine, &inputs, &settings, &mut sh, &mut rf)?;
+                tally(&estimator, &inputs, &settings, &mut sh, &mut rf)?;
             }
-            print_shares(&format!("{set}: {used} ANSUR II test-split subjects (ids divisible by 4), their real values as input (a fit check)"), &engine, &sh, &rf);
+            print_shares(&format!("{set}: {used} ANSUR II test-split subjects (ids divisible by 4), their real values as input (a fit check)"), &estimator, &sh, &rf);
         }
     }
     Ok(())
@@ -483,20 +493,20 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
 /// a failing measurement, prints the report (target, start, step 1, step 2)
 /// and what each L-BFGS run did (iterations, energy, why it stopped).
 fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
-    let engine = match arg(args, "--model") {
-        Some(m) => Engine::load(&PathBuf::from(m))?,
-        None => Engine::new(
-            Engine::default_model()?.file().clone(),
+    let estimator = match arg(args, "--model") {
+        Some(m) => Estimator::load(&PathBuf::from(m))?,
+        None => Estimator::new(
+            Estimator::default_model()?.file().clone(),
             "embedded default model",
         )?,
     };
     let n: usize = arg(args, "--n").map_or(Ok(10), |s| s.parse())?;
     let set = arg(args, "--set").unwrap_or_else(|| "quick".into());
     let settings = PredictOptions::custom(settings_from_args(args)?);
-    let names = usable(&engine, engine.set_members(&set)?);
+    let names = usable(&estimator, estimator.set_members(&set)?);
     let idx: Vec<usize> = names
         .iter()
-        .map(|n| engine.set().index_of(n).expect("member"))
+        .map(|n| estimator.set().index_of(n).expect("member"))
         .collect();
     let only: Option<Vec<usize>> = arg(args, "--bodies")
         .map(|v| v.split(',').map(|x| x.parse()).collect())
@@ -512,7 +522,7 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             .map(|body| {
                 idx.iter()
                     .map(|&j| {
-                        engine
+                        estimator
                             .compiled()
                             .measure_one(j, body)
                             .map(|m| Some(m.value))
@@ -528,7 +538,7 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             .map(|subject| {
                 idx.iter()
                     .map(|&j| {
-                        engine.set().definitions[j]
+                        estimator.set().definitions[j]
                             .ansur
                             .as_deref()
                             .and_then(|c| subject.dim(c))
@@ -548,11 +558,14 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         let truth: Vec<f64> = case.iter().map(|v| v.unwrap_or(f64::NAN)).collect();
-        let est = engine.predict(&inputs, &settings)?;
+        let est = estimator.predict(&inputs, &settings)?;
         let mut failing = Vec::new();
         for (k, &j) in idx.iter().enumerate() {
-            let tol = engine.set().definitions[j].tolerance.mm();
-            let v = engine.compiled().measure_one(j, &est.mesh.vertices)?.value;
+            let tol = estimator.set().definitions[j].tolerance.mm();
+            let v = estimator
+                .compiled()
+                .measure_one(j, &est.mesh.vertices)?
+                .value;
             let e = (v - truth[k]) * 1000.0;
             if e.abs() > tol {
                 failing.push(format!("{} {e:+.1} mm (tol {tol})", names[k]));

@@ -13,7 +13,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::PredictError;
+use crate::PredictError;
 
 /// A length unit an operator may type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -8,16 +8,16 @@
 
 use std::sync::OnceLock;
 
-use tapeshape_engine::dataset::{generate_population, Dataset, PopulationSettings};
-use tapeshape_engine::mesh::Vec3;
-use tapeshape_engine::predict::{
-    load_model_bytes, save_model, train, Engine, Inputs, PredictError, PredictOptions,
+use tapeshape_estimator::{
+    load_model_bytes, save_model, train, Estimator, Inputs, PredictError, PredictOptions,
     TrainSettings,
 };
+use tapeshape_mesh::Vec3;
+use tapeshape_population::{generate_population, Dataset, PopulationSettings};
 
 struct Fixture {
     heldout: Dataset,
-    paper34: Engine,
+    paper34: Estimator,
 }
 
 fn fixture() -> &'static Fixture {
@@ -39,30 +39,30 @@ fn fixture() -> &'static Fixture {
         let file = train(&training, &["paper34"], &TrainSettings::default()).expect("train");
         Fixture {
             heldout,
-            paper34: Engine::new(file, "test paper34 model").expect("engine"),
+            paper34: Estimator::new(file, "test paper34 model").expect("estimator"),
         }
     })
 }
 
-fn measure(engine: &Engine, names: &[String], body: &[Vec3]) -> Vec<f64> {
+fn measure(estimator: &Estimator, names: &[String], body: &[Vec3]) -> Vec<f64> {
     names
         .iter()
         .map(|n| {
-            let j = engine.set().index_of(n).unwrap();
-            engine.compiled().measure_one(j, body).unwrap().value
+            let j = estimator.set().index_of(n).unwrap();
+            estimator.compiled().measure_one(j, body).unwrap().value
         })
         .collect()
 }
 
 /// Names of `set` whose training SD is not zero (a measurement constant on
 /// the training set carries no information; see the report).
-fn usable(engine: &Engine, set: &str) -> Vec<String> {
-    let stats = engine.file().model.measurement_stats();
-    engine
+fn usable(estimator: &Estimator, set: &str) -> Vec<String> {
+    let stats = estimator.file().model.measurement_stats();
+    estimator
         .set_members(set)
         .unwrap()
         .into_iter()
-        .filter(|n| stats[engine.set().index_of(n).unwrap()].1 > 1e-9)
+        .filter(|n| stats[estimator.set().index_of(n).unwrap()].1 > 1e-9)
         .collect()
 }
 
@@ -93,11 +93,7 @@ fn sreal_compute() -> [[f64; 3]; 2] {
     let names = usable(e, "paper34");
     let is_circ = |n: &str| {
         let d = &e.set().definitions[e.set().index_of(n).unwrap()];
-        d.group.is_some()
-            || matches!(
-                d.kind,
-                tapeshape_engine::measure::Kind::Circumference { .. }
-            )
+        d.group.is_some() || matches!(d.kind, tapeshape_measure::Kind::Circumference { .. })
     };
     let mut stats = [
         [Vec::new(), Vec::new(), Vec::new()],
@@ -247,13 +243,13 @@ fn model_files_round_trip_plain_and_compressed() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-fn default_engine() -> &'static Engine {
-    Engine::default_model().expect("the embedded default model loads")
+fn default_estimator() -> &'static Estimator {
+    Estimator::default_model().expect("the embedded default model loads")
 }
 
 #[test]
 fn the_embedded_default_model_predicts_from_the_quick_set() {
-    let e = default_engine();
+    let e = default_estimator();
     for set in ["paper34", "ansur", "quick"] {
         assert!(e.set_members(set).is_ok(), "default model lacks {set}");
     }
@@ -290,7 +286,7 @@ fn entered(pairs: &[&str]) -> Inputs {
 }
 
 fn refuse(pairs: &[&str]) -> PredictError {
-    default_engine()
+    default_estimator()
         .predict(&entered(pairs), &PredictOptions::default())
         .expect_err("must be refused")
 }
@@ -310,7 +306,7 @@ fn bad_input_gets_a_clear_message() {
     }
     let mut nan = Inputs::new();
     nan.insert_metres("stature", f64::NAN).unwrap();
-    let e = default_engine()
+    let e = default_estimator()
         .predict(&nan, &PredictOptions::default())
         .unwrap_err();
     assert!(matches!(e, PredictError::BadValue(_)), "{e}");
@@ -335,14 +331,14 @@ fn bad_input_gets_a_clear_message() {
     assert!(matches!(e, PredictError::Contradiction(_)), "{e}");
     assert!(e.to_string().contains("SD"), "{e}");
 
-    assert!(default_engine()
+    assert!(default_estimator()
         .predict(&Inputs::new(), &PredictOptions::default())
         .is_err());
 }
 
 #[test]
 fn an_implausible_but_possible_set_gives_a_result_with_a_warning() {
-    let e = default_engine();
+    let e = default_estimator();
     let j = e.set().index_of("stature").unwrap();
     let (mean, sd) = e.file().model.measurement_stats()[j];
     let mut inputs = Inputs::new();

@@ -246,7 +246,7 @@ pub fn statistics(subjects: &[&Subject], columns: &[&str]) -> (Vec<f64>, Vec<f64
                 .collect()
         })
         .collect();
-    crate::stats::mean_sd_corr(&rows)
+    crate::statistics::mean_sd_corr(&rows)
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@
 use serde::{Deserialize, Serialize};
 use tapeshape_model::{PredictConfig, PredictSettings};
 
-use super::PredictError;
+use crate::PredictError;
 
 /// Which of the model's pipelines an estimate runs.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
