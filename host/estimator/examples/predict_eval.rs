@@ -2,7 +2,7 @@
 //!
 //! Why an example and not a test: these take minutes on hundreds of bodies;
 //! the reduced versions run in CI (`host/estimator/tests/predict.rs`); the full
-//! evaluation suite is `tapeshape eval` (`host/eval`).
+//! evaluation suite is the `tapeshape-eval` program (`host/eval`).
 //!
 //! ```text
 //! # the paper's S_real: train on a population, predict held-out bodies from paper34
@@ -21,7 +21,7 @@
 //! Every experiment takes the prediction settings as flags (see
 //! `settings_from_args`): `--paper` for the paper's exact pipeline, and
 //! `--gn`, `--w1`, `--w2`, `--w2-scale`, `--prior`, `--k1`, `--box`,
-//! `--cont`, `--iters1`, `--iters2`, `--l`, `--lambda`, `--s`.
+//! `--cont`, `--budget`, `--iters1`, `--iters2`, `--l`, `--lambda`, `--s`.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;

@@ -378,7 +378,7 @@ mod tests {
     #[test]
     fn report_writes_every_file() {
         let dir = std::env::temp_dir().join(format!("tapeshape-report-{}", std::process::id()));
-        let mut r = Report::new("T", "tapeshape eval x --out d");
+        let mut r = Report::new("T", "tapeshape-eval x --out d");
         r.text("hello");
         r.table(sample());
         r.write(&dir).unwrap();
@@ -386,7 +386,7 @@ mod tests {
             assert!(dir.join(f).is_file(), "{f} missing");
         }
         let md = std::fs::read_to_string(dir.join("README.md")).unwrap();
-        assert!(md.contains("tapeshape eval x --out d"));
+        assert!(md.contains("tapeshape-eval x --out d"));
         assert!(!std::fs::read_dir(&dir).unwrap().any(|e| e
             .unwrap()
             .file_name()

@@ -163,6 +163,7 @@ async fn unknown_set_is_refused_before_a_session_is_created() {
     assert!(store.list_sessions().unwrap().is_empty());
 }
 
+#[cfg(feature = "demo")]
 #[tokio::test]
 async fn demo_stores_exactly_what_the_simulated_tape_confirmed() {
     let tmp = tempfile::tempdir().unwrap();

@@ -259,7 +259,7 @@ fn run_interactive(
     sessions: Sessions,
     temp: Option<&std::path::Path>,
 ) -> anyhow::Result<()> {
-    use crate::tui::operator::{Autopilot, SimOperator, SimTape};
+    use crate::tui::operator::{Autopilot, SimDemo, SimOperator, SimTape};
     let set = tapeshape_measure::MeasurementSet::load(&args.measurement_set)?;
     let customer = demo_customer(&set, args.seed)?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -300,7 +300,10 @@ fn run_interactive(
         export_dir: export_dir.clone(),
         log_dir: data_dir,
         default_set: set.name.clone(),
-        demo: Some((tape, Autopilot::new(operator))),
+        demo: Some(Box::new(SimDemo {
+            tape,
+            pilot: Autopilot::new(operator),
+        })),
     };
     let result = crate::tui::runner::run_with_log(options, services, &runtime);
     drop(harness);

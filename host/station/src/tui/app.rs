@@ -14,7 +14,7 @@
 //! (`tui/screens/<screen>.rs`) owns its state, its keys and their words
 //! (footer and help come from the same list the key handler uses) and its
 //! drawing. The demo's simulated operator is not here: it is an event source
-//! of its own ([`crate::tui::operator::Autopilot`]) that only tells the app
+//! of its own (`tui::operator::Autopilot`, [`crate::tui::runner::Demo`]) that only tells the app
 //! when a person takes over ([`Event::TakenOver`]).
 //!
 //! Readings are never held here: every reading is committed to the store

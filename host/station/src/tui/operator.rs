@@ -285,3 +285,27 @@ impl Autopilot {
         }
     }
 }
+
+/// The demo as the runner drives it ([`crate::tui::runner::Demo`]): the
+/// simulated tape and the keyboard the simulated operator holds.
+#[derive(Debug)]
+pub struct SimDemo {
+    /// The simulated tape.
+    pub tape: SimTape,
+    /// The keyboard.
+    pub pilot: Autopilot,
+}
+
+impl crate::tui::runner::Demo for SimDemo {
+    fn person_key(&mut self, key: KeyEvent) -> Event {
+        self.pilot.person_key(key)
+    }
+
+    fn tick(&mut self, app: &App, now: Instant) -> Vec<Event> {
+        self.pilot.tick(app, now)
+    }
+
+    fn measure(&self, name: &str, slip: bool) -> Result<(), String> {
+        self.tape.measure(name, slip).map_err(|e| e.to_string())
+    }
+}
