@@ -43,9 +43,10 @@ macro_rules! outln {
 }
 
 pub mod dataset;
+#[cfg(feature = "demo")]
 pub mod demo;
-pub mod eval;
 pub mod measure;
+pub mod moved;
 pub mod predict;
 pub mod session;
 pub mod sessions;

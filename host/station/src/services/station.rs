@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-use tapeshape_engine::predict::{Engine, Estimate, Inputs, PredictOptions};
+use tapeshape_estimator::{Estimate, Estimator, Inputs, PredictOptions};
 use tapeshape_mesh::{Mesh, Topology, Vec3};
 
 use crate::check::{check_reading_with_tolerance, Flag};
@@ -70,8 +70,8 @@ pub fn reading_tolerance_m(mm: Option<f64>) -> Result<Option<f64>, BadTolerance>
     }
 }
 
-fn engine() -> Result<&'static Engine, ServiceError> {
-    Engine::default_model().map_err(ServiceError::Model)
+fn estimator() -> Result<&'static Estimator, ServiceError> {
+    Estimator::default_model().map_err(ServiceError::Model)
 }
 
 /// SHA-256 (hex) of a template topology: its vertex count and triangles
@@ -89,9 +89,9 @@ pub fn template_sha256(topology: &Topology) -> String {
 }
 
 /// [`template_sha256`] of the default model's template, computed once.
-fn default_template_sha256(engine: &Engine) -> &'static str {
+fn default_template_sha256(estimator: &Estimator) -> &'static str {
     static SHA: OnceLock<String> = OnceLock::new();
-    SHA.get_or_init(|| template_sha256(engine.topology()))
+    SHA.get_or_init(|| template_sha256(estimator.topology()))
 }
 
 fn session_info(s: &Session, exported_at_ms: i64) -> SessionInfo {
@@ -107,7 +107,7 @@ impl StationServices {
     /// Stores `est` (made from `request` in `seconds`) with its session.
     fn store(
         &self,
-        engine: &Engine,
+        estimator: &Estimator,
         request: &EstimateRequest,
         est: &Estimate,
         seconds: f64,
@@ -124,7 +124,7 @@ impl StationServices {
             made_at_ms: crate::store::now_ms(),
             seconds,
             model_source: est.report.model.source.clone(),
-            template_sha256: default_template_sha256(engine).to_string(),
+            template_sha256: default_template_sha256(estimator).to_string(),
             vertices: est.mesh.vertices.clone(),
             readings: request
                 .readings
@@ -151,7 +151,7 @@ impl StationServices {
 
 impl Services for StationServices {
     fn check(&self, req: &CheckRequest) -> CheckOutcome {
-        let engine = match engine() {
+        let estimator = match estimator() {
             Ok(e) => e,
             Err(e) => {
                 return CheckOutcome {
@@ -166,7 +166,7 @@ impl Services for StationServices {
             .map(|(n, mm)| (n.as_str(), mm / 1000.0))
             .collect();
         match check_reading_with_tolerance(
-            engine,
+            estimator,
             &taken,
             (&req.name, req.value_mm / 1000.0),
             req.tape_unit,
@@ -204,7 +204,7 @@ impl Services for StationServices {
             stage: Stage::Check,
             fraction: 0.0,
         });
-        let engine = match engine() {
+        let estimator = match estimator() {
             Ok(e) => e,
             Err(e) => {
                 sink(EstimateEvent::Failed(e.to_string()));
@@ -220,7 +220,8 @@ impl Services for StationServices {
             }
         }
         let t0 = Instant::now();
-        let running = match estimate::start_estimate(engine, &inputs, &PredictOptions::default()) {
+        let running = match estimate::start_estimate(estimator, &inputs, &PredictOptions::default())
+        {
             Ok(j) => j,
             Err(e) => {
                 sink(EstimateEvent::Failed(e.to_string()));
@@ -260,7 +261,7 @@ impl Services for StationServices {
                     Ok(est) => {
                         let seconds = t0.elapsed().as_secs_f64();
                         match this
-                            .store(engine, &request, &est, seconds)
+                            .store(estimator, &request, &est, seconds)
                             .and_then(|stored| summarise(&stored))
                         {
                             Ok(summary) => EstimateEvent::Done(Box::new(summary)),
@@ -289,15 +290,15 @@ impl Services for StationServices {
         format: MeshFormat,
         folder: &Path,
     ) -> Result<Vec<PathBuf>, ServiceError> {
-        let engine = engine()?;
+        let estimator = estimator()?;
         let (stored, mut report) = self.stored(session)?;
-        if stored.template_sha256 != default_template_sha256(engine) {
+        if stored.template_sha256 != default_template_sha256(estimator) {
             return Err(ServiceError::OtherTemplate {
                 session,
                 model: stored.model_source,
             });
         }
-        let mesh = Mesh::new(stored.vertices, engine.topology().clone()).map_err(|_| {
+        let mesh = Mesh::new(stored.vertices, estimator.topology().clone()).map_err(|_| {
             ServiceError::OtherTemplate {
                 session,
                 model: stored.model_source.clone(),
