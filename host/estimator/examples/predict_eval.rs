@@ -34,7 +34,7 @@ use tapeshape_estimator::{
 use tapeshape_measure::Kind;
 use tapeshape_mesh::Vec3;
 use tapeshape_model::predict::{
-    Continuation, EnergyWeighting, Step1Clamp, Step1Solver, Step2Weighting,
+    Continuation, EnergyWeighting, Step1Clamp, Step1Solver, Step2Solver, Step2Weighting,
 };
 use tapeshape_population::ansur::{Ansur, Split};
 use tapeshape_population::seeded;
@@ -725,8 +725,17 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
     if let Some(v) = arg(args, "--iters1") {
         s.step1.stop.max_iters = v.parse()?;
     }
+    if let Some(v) = arg(args, "--solver2") {
+        s.step2.solver = match v.as_str() {
+            "lbfgs" => Step2Solver::paper(),
+            "gn" => Step2Solver::GaussNewton {
+                stop: Default::default(),
+            },
+            other => return Err(format!("--solver2 lbfgs|gn, got {other}").into()),
+        };
+    }
     if let Some(v) = arg(args, "--iters2") {
-        s.step2.stop.max_iters = v.parse()?;
+        *s.step2.solver.max_iters_mut() = v.parse()?;
     }
     Ok(s)
 }

@@ -19,7 +19,9 @@ use std::time::{Duration, Instant};
 
 use tapeshape_measure::Kind;
 use tapeshape_mesh::Vec3;
-use tapeshape_model::{FitSettings, PredictConfig, PredictSettings, ShapeModel, Target};
+use tapeshape_model::{
+    FitSettings, PredictConfig, PredictSettings, ShapeModel, Step2Solver, StopRule, Target,
+};
 
 /// CPU time of the calling thread: under a loaded shared machine it measures
 /// the work done, where wall time also counts waiting for the core.
@@ -105,7 +107,12 @@ fn main() {
     let targets = targets_of(&test_meas[0]);
     for (label, history) in [("history 7", 7), ("history 5 (the default)", 5)] {
         let mut settings = PredictSettings::default();
-        settings.step2.stop.history = history;
+        settings.step2.solver = Step2Solver::Lbfgs {
+            stop: StopRule {
+                history,
+                ..StopRule::default()
+            },
+        };
         let settings = settings.resolve().expect("valid settings");
         let runs = if quick { 5 } else { 21 };
         let (mut total, mut cpu) = (Vec::new(), Vec::new());

@@ -233,6 +233,9 @@ pub enum MinimiseError {
     /// The energy or its gradient is NaN or infinite at the start point.
     #[error("at the start point: energy or gradient is not finite")]
     NonFiniteStart,
+    /// The Gauss-Newton system could not be analysed (out of memory).
+    #[error("the Gauss-Newton system could not be factorised (out of memory)")]
+    NoFactorisation,
 }
 
 /// Most trial points of one strong-Wolfe line search.

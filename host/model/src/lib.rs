@@ -35,6 +35,7 @@
 
 pub mod energy;
 pub mod file;
+pub mod gauss_newton;
 pub mod lbfgs;
 pub mod map;
 pub mod pca;
@@ -51,7 +52,8 @@ pub use predict::{
     Continuation, Control, EnergyWeighting, MeasurementReport, Measurer, Plausibility,
     PlausibilityLabel, PredictConfig, PredictObserver, PredictProgress, PredictSettings,
     PredictStage, Prediction, PredictionReport, Readings, Round, SettingsError, StageTimings,
-    StartMethod, Step1Clamp, Step1Settings, Step1Solver, Step2Settings, Step2Weighting, Target,
+    StartMethod, Step1Clamp, Step1Settings, Step1Solver, Step2Settings, Step2Solver,
+    Step2Weighting, Target,
 };
 pub use tapeshape_measure::{Measured, Support, SupportPoint};
 

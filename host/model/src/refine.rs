@@ -187,6 +187,12 @@ impl<'a> VertexObjective<'a> {
             disp: RefCell::new(vec![0.0; reference.len()]),
         }
     }
+
+    /// The measurement terms, the mesh edges and `lambda` (what
+    /// [`crate::gauss_newton`] builds its system from).
+    pub(crate) fn parts(&self) -> (&[SegmentTerm], &'a [[u32; 2]], f64) {
+        (&self.terms, self.edges, self.lambda)
+    }
 }
 
 impl Objective for VertexObjective<'_> {

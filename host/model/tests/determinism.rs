@@ -40,7 +40,7 @@ fn settings(max_evaluations: u64) -> PredictSettings {
     };
     s.step1.solver = Step1Solver::Lbfgs { prior_mm: None };
     s.step1.stop.max_iters = 5;
-    s.step2.stop.max_iters = 5;
+    *s.step2.solver.max_iters_mut() = 5;
     s
 }
 

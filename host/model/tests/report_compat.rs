@@ -6,7 +6,7 @@
 //! settings record, run reasons as text).
 
 use tapeshape_model::predict::{
-    Continuation, PredictSettings, Step1Clamp, Step1Solver, Step2Weighting,
+    Continuation, PredictSettings, Step1Clamp, Step1Solver, Step2Solver, Step2Weighting,
 };
 use tapeshape_model::{PredictionReport, Termination};
 
@@ -70,7 +70,8 @@ fn every_old_setting_maps_to_its_stage() {
             reading_weight: 100.0
         }
     );
-    assert_eq!(s.step2.stop.max_iters, 80);
+    assert_eq!(s.step2.solver.max_iters(), 80);
+    assert!(matches!(s.step2.solver, Step2Solver::Lbfgs { stop } if stop.history == 5));
     assert_eq!(
         s.continuation,
         Some(Continuation {

@@ -438,7 +438,7 @@ fn continuation_adds_rounds_while_readings_miss() {
         ..PredictSettings::default()
     };
     short.step1.stop.max_iters = 5;
-    short.step2.stop.max_iters = 5;
+    *short.step2.solver.max_iters_mut() = 5;
     // The L-BFGS step 1, whose iteration cap leaves readings off.
     short.step1.solver = Step1Solver::Lbfgs { prior_mm: None };
     let without = run_tube(&short, 3.0);

@@ -59,7 +59,7 @@ pub use rounds::{RoundsStop, RoundsSummary};
 pub use settings::{
     Continuation, EnergyWeighting, PredictConfig, PredictSettings, ReadingsConfig, ReportConfig,
     RoundsConfig, SettingsError, StartConfig, Step1Clamp, Step1Config, Step1Settings, Step1Solver,
-    Step2Config, Step2Settings, Step2Weighting, DEFAULT_MAX_EVALUATIONS,
+    Step2Config, Step2Settings, Step2Solver, Step2Weighting, DEFAULT_MAX_EVALUATIONS,
 };
 pub use start::{StartMethod, StartShape};
 pub use step1::Step1Shape;

@@ -20,6 +20,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::gauss_newton::GaussNewtonStop;
 use crate::lbfgs::{Lbfgs, LineSearch, StopRule};
 use crate::MM_PER_M;
 
@@ -109,16 +110,90 @@ pub enum Step1Clamp {
 }
 
 /// Step 2 (over the vertices).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Step2Settings {
     /// Weight of the smoothness energy, in `[0, 1]` (paper: 0.1).
     pub lambda: f64,
     /// How the readings' energies are weighted.
     pub weighting: Step2Weighting,
-    /// L-BFGS stopping rules: the paper's, with history 5 (each pair is
-    /// 2 x 3V doubles streamed twice per iteration; 5 instead of 7 pairs cut
-    /// the step-2 time by about a fifth, see `docs/results/predict-bench.md`).
-    pub stop: StopRule,
+    /// What minimises each round.
+    pub solver: Step2Solver,
+}
+
+/// What minimises each round of step 2.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Step2Solver {
+    /// The paper: L-BFGS with Armijo backtracking.
+    Lbfgs {
+        /// The paper's stopping rules, with history 5 (each pair is
+        /// 2 x 3V doubles streamed twice per iteration; 5 instead of 7
+        /// pairs cut the step-2 time by about a fifth, see
+        /// `docs/results/predict-bench.md`).
+        stop: StopRule,
+    },
+    /// Damped Gauss-Newton with a sparse Cholesky factorisation of the
+    /// 3V x 3V system ([`crate::gauss_newton`]): the same objective solved
+    /// in a few iterations instead of 100.
+    GaussNewton {
+        /// Its stopping rules.
+        stop: GaussNewtonStop,
+    },
+}
+
+impl Step2Solver {
+    /// The paper's L-BFGS with its stopping rules (history 5).
+    pub fn paper() -> Self {
+        Self::Lbfgs {
+            stop: StopRule {
+                history: 5,
+                ..StopRule::default()
+            },
+        }
+    }
+
+    /// The iteration cap of a run.
+    pub fn max_iters(&self) -> u64 {
+        match self {
+            Self::Lbfgs { stop } => stop.max_iters,
+            Self::GaussNewton { stop } => stop.max_iters,
+        }
+    }
+
+    /// The iteration cap of a run, to change it (experiments, tests).
+    pub fn max_iters_mut(&mut self) -> &mut u64 {
+        match self {
+            Self::Lbfgs { stop } => &mut stop.max_iters,
+            Self::GaussNewton { stop } => &mut stop.max_iters,
+        }
+    }
+}
+
+/// The serde form of [`Step2Settings`]: this version's (`solver`), or the
+/// one before, which held the L-BFGS stopping rule as `stop`.
+#[derive(Deserialize)]
+struct Step2Wire {
+    lambda: f64,
+    weighting: Step2Weighting,
+    #[serde(default)]
+    solver: Option<Step2Solver>,
+    #[serde(default)]
+    stop: Option<StopRule>,
+}
+
+impl<'de> Deserialize<'de> for Step2Settings {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let w = Step2Wire::deserialize(d)?;
+        let solver = match (w.solver, w.stop) {
+            (Some(s), _) => s,
+            (None, Some(stop)) => Step2Solver::Lbfgs { stop },
+            (None, None) => Step2Solver::paper(),
+        };
+        Ok(Self {
+            lambda: w.lambda,
+            weighting: w.weighting,
+            solver,
+        })
+    }
 }
 
 /// How step 2 weights the readings' energies.
@@ -216,10 +291,7 @@ impl Default for PredictSettings {
                 weighting: Step2Weighting::PerMeasurement {
                     reading_weight: 1e4,
                 },
-                stop: StopRule {
-                    history: 5,
-                    ..StopRule::default()
-                },
+                solver: Step2Solver::paper(),
             },
             continuation: Some(Continuation::default()),
             warn_error_mm: 5.0,
@@ -246,6 +318,7 @@ impl PredictSettings {
             },
             step2: Step2Settings {
                 weighting: Step2Weighting::Paper,
+                solver: Step2Solver::paper(),
                 ..d.step2
             },
             continuation: None,
@@ -411,7 +484,26 @@ pub struct Step2Config {
     pub(crate) lambda: f64,
     /// The weighting and its per-measurement scale (1 with the paper's).
     pub(crate) weighting: (EnergyWeighting, f64),
-    pub(crate) solver: Lbfgs,
+    pub(crate) solver: Step2Method,
+}
+
+/// What step 2's rounds run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Step2Method {
+    /// L-BFGS (backtracking line search).
+    Lbfgs(Lbfgs),
+    /// Sparse Gauss-Newton.
+    GaussNewton(GaussNewtonStop),
+}
+
+impl Step2Method {
+    /// The iteration cap of a run.
+    pub(crate) fn max_iters(&self) -> u64 {
+        match self {
+            Self::Lbfgs(l) => l.stop.max_iters,
+            Self::GaussNewton(g) => g.max_iters,
+        }
+    }
 }
 
 /// The rounds of both steps.
@@ -524,9 +616,16 @@ impl PredictConfig {
             step2: Step2Config {
                 lambda: s2.lambda,
                 weighting: weighting2,
-                solver: Lbfgs {
-                    stop: stop_rule("step 2's stopping rule", &s2.stop)?,
-                    line_search: LineSearch::Backtracking,
+                solver: match s2.solver {
+                    Step2Solver::Lbfgs { stop } => Step2Method::Lbfgs(Lbfgs {
+                        stop: stop_rule("step 2's stopping rule", &stop)?,
+                        line_search: LineSearch::Backtracking,
+                    }),
+                    Step2Solver::GaussNewton { stop } => {
+                        non_negative("step 2's Gauss-Newton rel_cost_tol", stop.rel_cost_tol)?;
+                        non_negative("step 2's Gauss-Newton grad_tol", stop.grad_tol)?;
+                        Step2Method::GaussNewton(stop)
+                    }
                 },
             },
             rounds: RoundsConfig {
@@ -602,7 +701,7 @@ impl TryFrom<&PredictSettings> for PredictConfig {
 #[derive(Deserialize)]
 #[serde(untagged)]
 enum SettingsWire {
-    Current(CurrentWire),
+    Current(Box<CurrentWire>),
     Flat(Box<FlatWire>),
 }
 
@@ -686,7 +785,7 @@ impl From<FlatWire> for PredictSettings {
                         reading_weight: f.step2_reading_weight,
                     },
                 },
-                stop: f.step2_stop,
+                solver: Step2Solver::Lbfgs { stop: f.step2_stop },
             },
             continuation: f.continuation,
             warn_error_mm: f.warn_error_mm,

@@ -26,10 +26,11 @@ use tapeshape_mesh::{Topology, Vec3};
 use super::progress::{in_run, PredictObserver, PredictProgress, PredictStage};
 use super::readings::Readings;
 use super::rounds::{run_rounds, thresholds, RoundEnd, RoundLog, RoundStep, RoundsSummary};
-use super::settings::{RoundsConfig, Step2Config};
+use super::settings::{RoundsConfig, Step2Config, Step2Method};
 use super::step1::Step1Shape;
 use super::terms::{to_m, to_mm};
 use super::Measurer;
+use crate::gauss_newton::{minimise_vertices, SymbolicCache};
 use crate::lbfgs::{minimise_watched, RunInfo, Termination};
 use crate::refine::VertexObjective;
 use crate::{ModelError, Result, ShapeModel, MM_PER_M};
@@ -69,13 +70,15 @@ struct Step2Rounds<'a> {
     /// The lowest `E_m` among the rounds' starts (round > 0): the round,
     /// the energy, the shape (mm) and its readings.
     best: Option<(usize, f64, Vec<f64>, Vec<Measured>)>,
+    /// The Gauss-Newton solver's symbolic factorisation, kept between rounds.
+    symbolic: SymbolicCache,
 }
 
 impl RoundStep for Step2Rounds<'_> {
     const STAGE: PredictStage = PredictStage::Step2;
 
     fn max_iterations(&self) -> u64 {
-        self.config.solver.stop.max_iters
+        self.config.solver.max_iters()
     }
 
     fn measure(&mut self, round: usize) -> Result<Vec<Measured>> {
@@ -120,7 +123,13 @@ impl RoundStep for Step2Rounds<'_> {
         }
         let obj = VertexObjective::new(terms, self.edges, &self.reference_mm, self.config.lambda);
         let watch = in_run(observer, at);
-        match minimise_watched(&obj, self.x_mm.clone(), &self.config.solver, &watch) {
+        let run = match &self.config.solver {
+            Step2Method::Lbfgs(solver) => minimise_watched(&obj, self.x_mm.clone(), solver, &watch),
+            Step2Method::GaussNewton(stop) => {
+                minimise_vertices(&obj, self.x_mm.clone(), stop, &mut self.symbolic, &watch)
+            }
+        };
+        match run {
             Ok((_, info)) if info.reason == Termination::Interrupted => {
                 Err(ModelError::Cancelled(at.to_string()))
             }
@@ -174,6 +183,7 @@ impl ShapeModel {
             reference_mm,
             p_mm: Vec::new(),
             best: None,
+            symbolic: SymbolicCache::default(),
         };
         let thresholds = thresholds(
             readings,
