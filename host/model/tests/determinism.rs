@@ -10,7 +10,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use common::*;
-use tapeshape_model::predict::{Continuation, RoundsStop, Step1Solver};
+use tapeshape_model::predict::{Continuation, RoundsStop, Step1Solver, Step2Solver};
 use tapeshape_model::{PredictSettings, Prediction, ShapeModel, StageTimings, Target};
 
 fn setup() -> (ShapeModel, Vec<Option<Target>>) {
@@ -40,6 +40,9 @@ fn settings(max_evaluations: u64) -> PredictSettings {
     };
     s.step1.solver = Step1Solver::Lbfgs { prior_mm: None };
     s.step1.stop.max_iters = 5;
+    // L-BFGS capped at 5 iterations leaves readings off, so the
+    // continuation runs until its budget (Gauss-Newton would meet them).
+    s.step2.solver = Step2Solver::paper();
     *s.step2.solver.max_iters_mut() = 5;
     s
 }
@@ -100,4 +103,18 @@ fn the_same_readings_give_bit_identical_predictions_under_load() {
         predict(&model, &targets, &settings(u64::MAX))
     }));
     assert_eq!(untimed(free).report, again.report);
+}
+
+/// The default step 2 (sparse Gauss-Newton, faer's Cholesky on one thread)
+/// gives bit-identical predictions too, with other threads spinning.
+#[test]
+fn gauss_newton_step_2_is_bit_identical_under_load() {
+    let (model, targets) = setup();
+    let s = PredictSettings::default();
+    assert!(matches!(s.step2.solver, Step2Solver::GaussNewton { .. }));
+    let quiet = untimed(predict(&model, &targets, &s));
+    let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+    let loaded = untimed(busy(cores, || predict(&model, &targets, &s)));
+    assert_eq!(quiet.vertices, loaded.vertices);
+    assert_eq!(quiet.report, loaded.report);
 }

@@ -2,7 +2,8 @@
 //!
 //! A prediction calls its [`PredictObserver`] at every stage boundary (the
 //! start, each round of step 1 and step 2, done) and, inside the solver
-//! runs, before every [`OBSERVE_EVERY`]-th objective evaluation. The
+//! runs, before every [`OBSERVE_EVERY`]-th objective evaluation (every
+//! evaluation of step 2's Gauss-Newton runs). The
 //! observer may answer [`Control::Cancel`]; the running solver then stops
 //! before its next evaluation (an interrupt, [`crate::lbfgs`]) and the
 //! prediction returns [`crate::ModelError::Cancelled`] without a body.
@@ -173,8 +174,20 @@ pub(crate) fn in_run<'a>(
     observer: &'a dyn PredictObserver,
     at: PredictProgress,
 ) -> impl Fn(u64) -> SolverControl + 'a {
+    in_run_every(observer, at, OBSERVE_EVERY)
+}
+
+/// [`in_run`], reporting every `every`-th evaluation: step 2's
+/// Gauss-Newton runs report each one (each follows a sparse factorisation,
+/// milliseconds, and a run has a handful), so that a cancel is seen within
+/// one iteration.
+pub(crate) fn in_run_every<'a>(
+    observer: &'a dyn PredictObserver,
+    at: PredictProgress,
+    every: u64,
+) -> impl Fn(u64) -> SolverControl + 'a {
     move |n: u64| {
-        if n.is_multiple_of(OBSERVE_EVERY) {
+        if n.is_multiple_of(every.max(1)) {
             observer.observe(&PredictProgress {
                 evaluations: n,
                 ..at

@@ -23,7 +23,7 @@
 use tapeshape_measure::Measured;
 use tapeshape_mesh::{Topology, Vec3};
 
-use super::progress::{in_run, PredictObserver, PredictProgress, PredictStage};
+use super::progress::{in_run, in_run_every, PredictObserver, PredictProgress, PredictStage};
 use super::readings::Readings;
 use super::rounds::{run_rounds, thresholds, RoundEnd, RoundLog, RoundStep, RoundsSummary};
 use super::settings::{RoundsConfig, Step2Config, Step2Method};
@@ -122,12 +122,17 @@ impl RoundStep for Step2Rounds<'_> {
             return Ok(RoundEnd::NothingToFit);
         }
         let obj = VertexObjective::new(terms, self.edges, &self.reference_mm, self.config.lambda);
-        let watch = in_run(observer, at);
         let run = match &self.config.solver {
-            Step2Method::Lbfgs(solver) => minimise_watched(&obj, self.x_mm.clone(), solver, &watch),
-            Step2Method::GaussNewton(stop) => {
-                minimise_vertices(&obj, self.x_mm.clone(), stop, &mut self.symbolic, &watch)
+            Step2Method::Lbfgs(solver) => {
+                minimise_watched(&obj, self.x_mm.clone(), solver, &in_run(observer, at))
             }
+            Step2Method::GaussNewton(stop) => minimise_vertices(
+                &obj,
+                self.x_mm.clone(),
+                stop,
+                &mut self.symbolic,
+                &in_run_every(observer, at, 1),
+            ),
         };
         match run {
             Ok((_, info)) if info.reason == Termination::Interrupted => {
