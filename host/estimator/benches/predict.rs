@@ -1,7 +1,8 @@
-//! Estimator-level benchmarks of issue 4 (criterion): one prediction from a
-//! body's paper34 values with the embedded default model (full template,
-//! 13,718 vertices, s = 3, input checks included), and training on 400
-//! bodies with paper34 + ansur + quick.
+//! Estimator-level benchmarks of issues 4 and 13 (criterion): one
+//! prediction from a generated body's paper34, quick and ansur values with
+//! the embedded default model (full template, 13,718 vertices, s = 3, input
+//! checks included), and training on 400 bodies with paper34 + ansur +
+//! quick.
 //!
 //! Why at the estimator level: this is what the station pays per customer
 //! (checks, the union model's conditional start, both steps); the model
@@ -31,25 +32,36 @@ fn bench_predict(c: &mut Criterion) {
     )
     .expect("generate a body");
     let stats = estimator.file().model.measurement_stats();
-    let mut inputs = Inputs::new();
-    for name in estimator.set_members("paper34").expect("paper34") {
-        let j = estimator.set().index_of(&name).expect("member");
-        if stats[j].1 <= 1e-9 {
-            continue; // constant on the training set (landmarks on one vertex)
+    let inputs_of = |set: &str| {
+        let mut inputs = Inputs::new();
+        for name in estimator.set_members(set).expect("a set of the model") {
+            let j = estimator.set().index_of(&name).expect("member");
+            if stats[j].1 <= 1e-9 {
+                continue; // constant on the training set (landmarks on one vertex)
+            }
+            let v = estimator
+                .compiled()
+                .measure_one(j, &body.bodies[0])
+                .expect("measure")
+                .value;
+            inputs.insert_metres(&name, v).expect("unique");
         }
-        let v = estimator
-            .compiled()
-            .measure_one(j, &body.bodies[0])
-            .expect("measure")
-            .value;
-        inputs.insert_metres(&name, v).expect("unique");
-    }
+        inputs
+    };
     let settings = PredictOptions::default();
     let mut g = c.benchmark_group("predict");
     g.sample_size(20);
-    g.bench_function("paper34_default_model_s3", |b| {
-        b.iter(|| estimator.predict(&inputs, &settings).expect("predict"))
-    });
+    // The first name is what the issue-4 figures were recorded under.
+    for (label, set) in [
+        ("paper34_default_model_s3", "paper34"),
+        ("quick_default_model_s3", "quick"),
+        ("ansur_default_model_s3", "ansur"),
+    ] {
+        let inputs = inputs_of(set);
+        g.bench_function(label, |b| {
+            b.iter(|| estimator.predict(&inputs, &settings).expect("predict"))
+        });
+    }
     g.finish();
 }
 

@@ -167,7 +167,7 @@ impl ReadingPrediction {
 /// The statistics are a [`JointGaussian`] of the ANSUR columns alone (no
 /// weights), so a reading's prediction from the others is the model's one
 /// Gaussian conditional, [`JointGaussian::conditional`].
-#[derive(Debug)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub(crate) struct RealStats {
     /// Per model measurement: its index in `joint`, if it has an ANSUR column.
     row: Vec<Option<usize>>,
@@ -228,6 +228,16 @@ impl RealStats {
                 cov,
             },
         }
+    }
+
+    #[cfg(test)]
+    pub(crate) fn row_for_tests(&self) -> &[Option<usize>] {
+        &self.row
+    }
+
+    #[cfg(test)]
+    pub(crate) fn joint_for_tests(&self) -> &JointGaussian {
+        &self.joint
     }
 
     /// Mean and SD (metres) of row `r`.

@@ -1,6 +1,7 @@
 //! [`Estimator`]: a trained model with its measurement set compiled for its
 //! template, and the estimate itself (checks, then the model's stages).
 
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
@@ -10,9 +11,16 @@ use tapeshape_model::{
     Control, ModelError, ModelFile, PredictObserver, PredictProgress, PredictStage, Target,
 };
 
+use crate::cache;
 use crate::checks::RealStats;
 use crate::file::{load_model_bytes, DEFAULT_MODEL};
 use crate::{Estimate, EstimateReport, Inputs, ModelSummary, PredictError, PredictOptions};
+
+/// Where [`Estimator::default_model`] keeps its decoded cache.
+static CACHE_DIR: OnceLock<PathBuf> = OnceLock::new();
+
+/// How the default model is named in reports and errors.
+const DEFAULT_SOURCE: &str = "embedded default model";
 
 /// A trained model with its measurement set compiled for its template:
 /// compiled once, then [`Estimator::predict`] as often as wanted.
@@ -85,16 +93,57 @@ impl Estimator {
     /// The embedded default model (trained on 400 generated bodies with the
     /// `paper34`, `ansur` and `quick` sets; see `docs/prediction.md`).
     /// Decompressed and compiled on first use, then shared.
+    /// With a cache directory ([`Estimator::use_cache_dir`]) the decoded
+    /// model and its ANSUR II statistics are read from there (a few
+    /// milliseconds), or written there on the first start (see
+    /// [`crate::cache`]).
     pub fn default_model() -> Result<&'static Estimator, PredictError> {
         static ENGINE: OnceLock<Result<Estimator, String>> = OnceLock::new();
         ENGINE
-            .get_or_init(|| {
-                load_model_bytes(DEFAULT_MODEL, "embedded default model")
-                    .and_then(|f| Estimator::new(f, "embedded default model"))
-                    .map_err(|e| e.to_string())
+            .get_or_init(|| match CACHE_DIR.get() {
+                Some(dir) => Self::default_cached(dir).map_err(|e| e.to_string()),
+                None => Self::default_uncached().map_err(|e| e.to_string()),
             })
             .as_ref()
             .map_err(|e| PredictError::Input(format!("the embedded default model is broken (rebuild it, see docs/prediction.md): {e}")))
+    }
+
+    /// Keeps the decoded default model in `dir` (the station's data
+    /// directory's `cache/`): call before the first
+    /// [`Estimator::default_model`]. Returns false if the default model was
+    /// already loaded or a directory already chosen (then nothing changes).
+    pub fn use_cache_dir(dir: PathBuf) -> bool {
+        CACHE_DIR.set(dir).is_ok()
+    }
+
+    fn default_uncached() -> Result<Estimator, PredictError> {
+        load_model_bytes(DEFAULT_MODEL, DEFAULT_SOURCE)
+            .and_then(|f| Estimator::new(f, DEFAULT_SOURCE))
+    }
+
+    /// The default model through the cache in `dir`: read it, or decode
+    /// the embedded one, compute its statistics now and write the cache.
+    pub(crate) fn default_cached(dir: &Path) -> Result<Estimator, PredictError> {
+        match cache::read(dir, cache::DEFAULT_MODEL_SHA256) {
+            Ok((file, real)) => {
+                let estimator = Estimator::new(file, DEFAULT_SOURCE)?;
+                let _ = estimator.real.set(real);
+                Ok(estimator)
+            }
+            Err(why) => {
+                tracing::info!(dir = %dir.display(), ?why, "decoding the embedded default model (no usable cache)");
+                let estimator = Self::default_uncached()?;
+                let real = estimator
+                    .real
+                    .get_or_init(|| RealStats::compute(&estimator.set));
+                if let Err(e) =
+                    cache::write(dir, cache::DEFAULT_MODEL_SHA256, &estimator.file, real)
+                {
+                    tracing::warn!(dir = %dir.display(), error = %e, "could not write the model cache (each start decodes the model again)");
+                }
+                Ok(estimator)
+            }
+        }
     }
 
     /// The model file.

@@ -65,6 +65,7 @@
 //! Units: metres inside, station frame (Z up, feet at z = 0, +Y front, +X the
 //! body's right).
 
+pub mod cache;
 pub mod checks;
 mod error;
 pub mod estimator;

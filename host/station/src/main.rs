@@ -43,6 +43,8 @@ enum Command {
     Train(cli::train::Args),
     /// Estimate a body mesh from tape measurements (any subset of the model's); --help for units and files.
     Predict(cli::predict::Args),
+    /// Estimate a body for every person of a survey CSV, on all cores (resumable, shardable).
+    Batch(cli::batch::Args),
     /// The paper's experiments moved to `tapeshape-eval`: says how to run them.
     #[command(hide = true)]
     Eval(cli::moved::Args),
@@ -59,6 +61,11 @@ fn main() -> ExitCode {
         }
     };
     cli::init_logging(args.global.verbose);
+    // The embedded model decoded once per machine, kept in the data
+    // directory (tapeshape_estimator::cache): a start costs milliseconds.
+    if let Ok(dir) = args.global.data_dir() {
+        tapeshape_estimator::Estimator::use_cache_dir(dir.join("cache"));
+    }
     let result = match args.command {
         Command::Station(a) => cli::station::run(a, &args.global),
         Command::Sessions(a) => cli::sessions::run(a, &args.global),
@@ -71,6 +78,7 @@ fn main() -> ExitCode {
         Command::Dataset(a) => cli::dataset::run(a, &args.global),
         Command::Train(a) => cli::train::run(a, &args.global),
         Command::Predict(a) => cli::predict::run(a, &args.global),
+        Command::Batch(a) => cli::batch::run(a, &args.global),
         Command::Eval(a) => cli::moved::eval(a),
     };
     match result {

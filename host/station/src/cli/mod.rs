@@ -42,6 +42,7 @@ macro_rules! outln {
     }};
 }
 
+pub mod batch;
 pub mod dataset;
 #[cfg(feature = "demo")]
 pub mod demo;

@@ -136,6 +136,14 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         sessions.clone(),
         tolerance,
     ));
+    // Load the model while the operator types the first customer, so that
+    // the first estimate is as fast as the tenth (an error shows at the
+    // first estimate, where the interface reports it).
+    let _ = std::thread::Builder::new()
+        .name("model-warm-up".into())
+        .spawn(|| {
+            let _ = tapeshape_estimator::Estimator::default_model();
+        });
     let options = crate::tui::runner::RunOptions {
         sessions,
         port_label: args.port.display().to_string(),
