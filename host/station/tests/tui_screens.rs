@@ -80,6 +80,28 @@ fn measuring_screen() {
     insta::assert_snapshot!(render(&measuring()));
 }
 
+/// The live estimate's body beside the instructions once it is done.
+#[test]
+fn measuring_with_the_live_body() {
+    let mut a = measuring();
+    let generation = a.live.generation;
+    send(
+        &mut a,
+        [Event::Live {
+            generation,
+            event: EstimateEvent::Done(Box::new(EstimateSummary {
+                session: SessionId(3),
+                rows: Vec::new(),
+                plausibility: "typical".into(),
+                warnings: Vec::new(),
+                silhouettes: figure(),
+                seconds: 0.2,
+            })),
+        }],
+    );
+    insta::assert_snapshot!(render(&a));
+}
+
 #[test]
 fn measuring_in_inches() {
     let mut a = measuring();

@@ -592,3 +592,103 @@ fn an_unanswered_flag_comes_back_after_a_restart() {
     assert_eq!(s.items[chest].state, ItemState::Flagged);
     assert_eq!(current(&a).as_deref(), Some("chest"));
 }
+
+fn summary(seconds: f64) -> tapeshape::services::EstimateSummary {
+    tapeshape::services::EstimateSummary {
+        session: SessionId(3),
+        rows: Vec::new(),
+        plausibility: "typical".into(),
+        warnings: Vec::new(),
+        silhouettes: Default::default(),
+        seconds,
+    }
+}
+
+fn live_requests(fx: &[Effect]) -> Vec<(u64, Vec<(String, f64)>)> {
+    fx.iter()
+        .filter_map(|e| match e {
+            Effect::LiveEstimate {
+                generation,
+                request,
+            } => Some((*generation, request.readings.clone())),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The station estimates in the background after each accepted reading;
+/// a newer reading asks again (the runner cancels the older one) and the
+/// older one's answer is ignored; with the live body of exactly the
+/// readings taken, `e` shows the result at once, with no new estimate.
+#[test]
+fn each_accepted_reading_re_estimates_live_and_e_shows_the_ready_body() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    // Stored but still being checked: nothing yet (it may be refused).
+    let fx = committed(&mut a, 0, "stature", 17_650);
+    assert!(live_requests(&fx).is_empty());
+    let fx = checked(&mut a, "stature", 17_650, None);
+    let first = live_requests(&fx);
+    assert_eq!(first, vec![(1, vec![("stature".to_string(), 1765.0)])]);
+    // Other events with the same readings ask nothing more.
+    assert!(live_requests(&send(&mut a, [Event::Tick])).is_empty());
+    take(&mut a, 1, "chest", 9_820);
+    assert_eq!(a.live.generation, 2);
+    assert!(a.live.running);
+    // The first request's answer comes late: ignored.
+    send(
+        &mut a,
+        [Event::Live {
+            generation: 1,
+            event: EstimateEvent::Done(Box::new(summary(0.1))),
+        }],
+    );
+    assert!(a.live.shown.is_none() && a.live.running);
+    send(
+        &mut a,
+        [Event::Live {
+            generation: 2,
+            event: EstimateEvent::Done(Box::new(summary(0.2))),
+        }],
+    );
+    assert!(!a.live.running);
+    assert_eq!(a.live.shown.as_ref().unwrap().1.seconds, 0.2);
+    let fx = send(&mut a, [ch('e')]);
+    assert_eq!(a.screen, Screen::Result, "the body is ready");
+    assert_eq!(a.result.summary.as_ref().unwrap().seconds, 0.2);
+    assert!(!fx.iter().any(|e| matches!(e, Effect::StartEstimate(_))));
+}
+
+/// `e` while the live estimate of these readings still runs: the estimate
+/// is asked for (the runner adopts the running one); an undo withdraws a
+/// reading and asks for a live estimate of what is left; undoing the last
+/// one cancels it.
+#[test]
+fn live_estimate_follows_undo_and_e_while_running_asks_for_the_estimate() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    take(&mut a, 0, "stature", 17_650);
+    take(&mut a, 1, "chest", 9_820);
+    let fx = send(&mut a, [ch('u')]);
+    assert_eq!(
+        live_requests(&fx),
+        vec![(3, vec![("stature".to_string(), 1765.0)])]
+    );
+    let fx = send(&mut a, [ch('e')]);
+    let job = fx
+        .iter()
+        .find_map(|e| match e {
+            Effect::StartEstimate(j) => Some(j.clone()),
+            _ => None,
+        })
+        .expect("not ready yet: an estimate is asked for");
+    assert_eq!(job.readings, a.live.readings);
+    assert_eq!(a.screen, Screen::Estimating);
+    send(&mut a, [Event::Estimate(EstimateEvent::Cancelled)]);
+    assert_eq!(a.screen, Screen::Measuring);
+    let fx = send(&mut a, [ch('u')]);
+    assert!(fx.contains(&Effect::CancelLive), "{fx:?}");
+    assert!(!a.live.running && a.live.readings.is_empty());
+}

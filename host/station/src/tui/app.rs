@@ -35,12 +35,14 @@ use crate::services::{
 };
 use crate::store::{Mark, ReadingId, SessionId, SessionStatus, SessionSummary, StoredReading};
 use crate::tui::keys::{ch, lookup, Binding, Hint, Key};
+use crate::tui::screens::measuring::live;
 use crate::tui::screens::{device, estimating, history, measuring, new_customer, result};
 
 pub use crate::session::{EstimateInfo, MeasurementInfo, ResumeOffer, SessionView};
 pub use crate::tui::screens::device::{Connection, DeviceState, FAULTS_KEPT};
 pub use crate::tui::screens::estimating::EstimateState;
 pub use crate::tui::screens::history::HistoryState;
+pub use crate::tui::screens::measuring::live::LiveEstimate;
 pub use crate::tui::screens::measuring::{Item, ItemState, SessionState, StoreRevert, UndoEntry};
 pub use crate::tui::screens::new_customer::{
     customer_id, CustomerForm, FormField, BUILTIN_SET_CHOICES,
@@ -166,6 +168,8 @@ pub struct App {
     pub session: Option<SessionState>,
     /// Estimate progress (estimating screen).
     pub estimate: EstimateState,
+    /// The live estimate of the readings so far (measuring screen).
+    pub live: LiveEstimate,
     /// Result screen.
     pub result: ResultScreen,
     /// History screen.
@@ -225,6 +229,14 @@ pub enum Event {
     },
     /// Estimate progress.
     Estimate(EstimateEvent),
+    /// Progress of live estimate number `generation` (result of
+    /// [`Effect::LiveEstimate`]).
+    Live {
+        /// Which request it answers.
+        generation: u64,
+        /// What happened.
+        event: EstimateEvent,
+    },
     /// Result of [`Effect::Check`].
     Checked {
         /// Measurement checked.
@@ -302,6 +314,17 @@ pub enum Effect {
     StartEstimate(EstimateRequest),
     /// Cancel the running estimate.
     CancelEstimate,
+    /// Estimate the readings so far in the background, cancelling the live
+    /// estimate still running; progress comes as [`Event::Live`]. A
+    /// [`Effect::StartEstimate`] of the same request while it runs adopts it.
+    LiveEstimate {
+        /// Number of this request.
+        generation: u64,
+        /// What to estimate.
+        request: EstimateRequest,
+    },
+    /// Cancel the running live estimate.
+    CancelLive,
     /// Export the session's stored estimate; answer with [`Event::Exported`].
     Export {
         /// Session.
@@ -342,6 +365,7 @@ impl App {
             form: CustomerForm::new(config.id_seed, &config.default_set),
             session: None,
             estimate: EstimateState::default(),
+            live: LiveEstimate::default(),
             result: ResultScreen::default(),
             history: HistoryState::default(),
             unit: Unit::Cm,
@@ -521,6 +545,7 @@ pub fn update(app: &mut App, event: Event) -> Vec<Effect> {
             unit_shown,
         } => measuring::on_reading_stored(app, reading, unit_shown, &mut fx),
         Event::Estimate(ev) => estimating::on_estimate(app, ev, &mut fx),
+        Event::Live { generation, event } => live::on_live(app, generation, event),
         Event::Checked {
             name,
             value_tenth_mm,
@@ -544,6 +569,7 @@ pub fn update(app: &mut App, event: Event) -> Vec<Effect> {
         }
         Event::Tick => {}
     }
+    live::sync(app, &mut fx);
     app.sync_link(&mut fx);
     fx
 }

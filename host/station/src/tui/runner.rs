@@ -14,7 +14,7 @@
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
@@ -22,7 +22,7 @@ use crossterm::event::{self as ct, KeyEventKind};
 use tokio::sync::mpsc;
 
 use crate::link::{Link, LinkConfig, LinkHandle, Naming};
-use crate::services::{Cancel, SharedServices};
+use crate::services::{Cancel, EstimateEvent, EstimateRequest, SharedServices};
 use crate::session::Sessions;
 use crate::tui::app::{update, App, AppConfig, Effect, Event};
 
@@ -128,6 +128,7 @@ async fn run_in(
         services,
         export_dir,
         cancel: None,
+        live: None,
         demo,
     };
     for fx in app.start() {
@@ -225,7 +226,26 @@ struct Ctx {
     services: SharedServices,
     export_dir: PathBuf,
     cancel: Option<Box<dyn Cancel>>,
+    live: Option<LiveJob>,
     demo: Option<Box<dyn Demo>>,
+}
+
+/// The live estimate running in the background (`tui::screens::measuring::live`).
+struct LiveJob {
+    request: EstimateRequest,
+    cancel: Box<dyn Cancel>,
+    /// `adopted`: its events are also the estimate's (an `e` while it ran;
+    /// its cancel handle then moves to `Ctx::cancel`); `finished`: it has
+    /// sent its last event. One lock, so that adopting and finishing cannot
+    /// cross (a job that finished first is not adopted: a new estimate
+    /// starts).
+    state: Arc<Mutex<LiveFlags>>,
+}
+
+#[derive(Default)]
+struct LiveFlags {
+    adopted: bool,
+    finished: bool,
 }
 
 impl Ctx {
@@ -297,6 +317,20 @@ impl Ctx {
                 if let Some(c) = self.cancel.take() {
                     c.cancel();
                 }
+                // The live estimate of these readings is running: it becomes
+                // the estimate (nothing is computed twice).
+                if let Some(live) = self.live.take() {
+                    let adopted = live.request == request && {
+                        let mut flags = live.state.lock().unwrap_or_else(|e| e.into_inner());
+                        flags.adopted = !flags.finished;
+                        flags.adopted
+                    };
+                    if adopted {
+                        self.cancel = Some(live.cancel);
+                        return;
+                    }
+                    live.cancel.cancel();
+                }
                 let tx = self.tx.clone();
                 let sink = Box::new(move |ev| {
                     let _ = tx.send(Event::Estimate(ev));
@@ -306,6 +340,46 @@ impl Ctx {
             Effect::CancelEstimate => {
                 if let Some(c) = self.cancel.take() {
                     c.cancel();
+                }
+            }
+            Effect::LiveEstimate {
+                generation,
+                request,
+            } => {
+                if let Some(old) = self.live.take() {
+                    old.cancel.cancel();
+                }
+                let tx = self.tx.clone();
+                let state = Arc::new(Mutex::new(LiveFlags::default()));
+                let flags = state.clone();
+                let sink = Box::new(move |ev: EstimateEvent| {
+                    let mut f = flags.lock().unwrap_or_else(|e| e.into_inner());
+                    if matches!(
+                        ev,
+                        EstimateEvent::Done(_)
+                            | EstimateEvent::Failed(_)
+                            | EstimateEvent::Cancelled
+                    ) {
+                        f.finished = true;
+                    }
+                    let _ = tx.send(Event::Live {
+                        generation,
+                        event: ev.clone(),
+                    });
+                    if f.adopted {
+                        let _ = tx.send(Event::Estimate(ev));
+                    }
+                });
+                let cancel = self.services.start_estimate(request.clone(), sink);
+                self.live = Some(LiveJob {
+                    request,
+                    cancel,
+                    state,
+                });
+            }
+            Effect::CancelLive => {
+                if let Some(live) = self.live.take() {
+                    live.cancel.cancel();
                 }
             }
             Effect::Export { session, format } => {

@@ -248,7 +248,9 @@ fn bounds(points: &[(f64, f64)], w: u16, h: u16) -> ([f64; 2], [f64; 2]) {
     )
 }
 
-fn silhouette<'a>(
+/// A braille silhouette of `points` in `area` (also the measuring
+/// screen's live estimate).
+pub(crate) fn silhouette<'a>(
     mono: bool,
     points: &'a [(f64, f64)],
     title: &'a str,

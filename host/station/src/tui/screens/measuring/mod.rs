@@ -16,6 +16,7 @@ use crate::tui::app::{action, toggled, App, Effect, Global, Level, Screen, ShowL
 use crate::tui::keys::{ch, code, hints as hints_of, Binding, Hint};
 use crate::tui::theme::{hint, hint_line, st, Role};
 
+pub mod live;
 mod session;
 
 use session::{advance, start_estimate, stored_mark};
@@ -314,6 +315,49 @@ fn mark(state: ItemState) -> &'static str {
     }
 }
 
+/// The live estimate's silhouette (front) and what it is of.
+fn draw_live(app: &App, frame: &mut Frame, area: Rect) {
+    let m = app.mono;
+    let live = &app.live;
+    // What the body is of: the side view's title, or the empty frame's.
+    let status = match (&live.shown, live.running, &live.error) {
+        (_, true, _) => " updating... ".to_string(),
+        (_, false, Some(_)) => " no body yet ".to_string(),
+        (Some((r, _)), false, None) => format!(" {} readings ", r.len()),
+        (None, false, None) => String::new(),
+    };
+    match &live.shown {
+        Some((_, summary)) => {
+            let [front, side] =
+                Layout::horizontal([Constraint::Ratio(1, 2), Constraint::Ratio(1, 2)]).areas(area);
+            frame.render_widget(
+                crate::tui::screens::result::silhouette(
+                    m,
+                    &summary.silhouettes.front,
+                    " body so far ",
+                    front,
+                ),
+                front,
+            );
+            frame.render_widget(
+                crate::tui::screens::result::silhouette(
+                    m,
+                    &summary.silhouettes.side,
+                    &status,
+                    side,
+                ),
+                side,
+            );
+        }
+        None => frame.render_widget(
+            Block::bordered()
+                .title(format!(" body so far:{status}"))
+                .border_style(st(m, Role::Dim)),
+            area,
+        ),
+    }
+}
+
 /// Draws the measuring screen into `area`.
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let m = app.mono;
@@ -323,6 +367,25 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     };
     let [list_area, detail] =
         Layout::horizontal([Constraint::Length(38), Constraint::Min(20)]).areas(area);
+    // The live estimate under the list when the set leaves room (quick at
+    // 80x24), else beside the instructions on a wide terminal.
+    let live = &app.live;
+    let has_live = live.running || live.shown.is_some() || live.error.is_some();
+    let list_rows = s.items.len() as u16 + 2;
+    let (list_area, detail, live_area) = if has_live && list_area.height >= list_rows + 8 {
+        let [l, v] =
+            Layout::vertical([Constraint::Length(list_rows), Constraint::Min(8)]).areas(list_area);
+        (l, detail, Some(v))
+    } else if has_live && detail.width >= 70 {
+        let [d, v] =
+            Layout::horizontal([Constraint::Min(40), Constraint::Length(30)]).areas(detail);
+        (list_area, d, Some(v))
+    } else {
+        (list_area, detail, None)
+    };
+    if let Some(v) = live_area {
+        draw_live(app, frame, v);
+    }
     let items: Vec<ListItem> = s
         .items
         .iter()

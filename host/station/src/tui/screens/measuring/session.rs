@@ -448,6 +448,22 @@ pub(super) fn start_estimate(app: &mut App, fx: &mut Vec<Effect>, then_export: b
         return;
     }
     let session = s.id;
+    // The live estimate of exactly these readings is done: no waiting.
+    if let Some(summary) = app.live.ready(session, &readings) {
+        app.result.summary = Some(summary.clone());
+        app.result.exported = None;
+        app.result.stored = None;
+        app.estimate = EstimateState::default();
+        app.notice = None;
+        app.screen = Screen::Result;
+        if then_export {
+            fx.push(Effect::Export {
+                session,
+                format: app.result.format,
+            });
+        }
+        return;
+    }
     app.estimate = EstimateState {
         running: true,
         ..EstimateState::default()
