@@ -15,10 +15,12 @@
 //! `H = 2 (1 - lambda) sum_e c_e grad r_e grad r_e^T + 4 lambda (L (x) I_3)`,
 //! the Gauss-Newton Hessian (exact for `E_s`; for `E_m` without the
 //! second-order residual term, which vanishes at a fit), by faer's sparse
-//! Cholesky (AMD ordering, supernodal where it pays). The sparsity pattern
-//! and the symbolic factorisation are built once per run (the terms' supports
-//! are held during a run, as in the paper); every iteration refills the
-//! values and factorises numerically. `mu` (Levenberg-Marquardt) makes the
+//! Cholesky (AMD ordering, supernodal where it pays). The sparsity pattern,
+//! the symbolic factorisation and the last numeric factor are kept between
+//! iterations and rounds ([`SymbolicCache`]); an iteration refills the
+//! values and solves by conjugate gradients preconditioned with the kept
+//! factor, factorising again only when that does not converge at once (a
+//! prediction of the quick set factorises once). `mu` (Levenberg-Marquardt) makes the
 //! system definite (`E_m` and `E_s` are both blind to a rigid translation)
 //! and damps steps the energy does not accept: a trial that does not lower
 //! the energy is refused and retried with a larger `mu`, an accepted one
@@ -75,6 +77,7 @@ pub const MAX_REJECTS: u32 = 12;
 /// each contribution goes.
 struct Pattern {
     n: usize,
+    lambda: f64,
     col_ptr: Vec<u32>,
     row_idx: Vec<u32>,
     /// Values of `4 lambda (L (x) I_3)` in the pattern's order.
@@ -173,6 +176,7 @@ impl Pattern {
         }
         Self {
             n,
+            lambda,
             col_ptr,
             row_idx,
             laplacian,
@@ -230,42 +234,216 @@ fn residual_gradient(t: &SegmentTerm, x: &[f64]) -> [f64; 12] {
     g
 }
 
-/// The symbolic factorisation of the last run, kept for the next one of the
-/// same step: rounds whose supports touch the same unknowns have the same
-/// pattern, and the analysis (the AMD ordering, the supernodes) is most of
-/// a factorisation's cost.
+/// What one step's Gauss-Newton runs keep between iterations and rounds:
+/// the pattern of the last terms, its symbolic analysis (the AMD ordering,
+/// the elimination tree), and the last numeric factor.
+///
+/// Why keep the factor: within a round the terms' supports are held and
+/// each step moves the vertices by fractions of a millimetre, and the next
+/// round's supports are the same ones re-measured, so the last factor is a
+/// near-exact preconditioner. Each step is first solved by conjugate
+/// gradients preconditioned with it (a solve costs a few per cent of a
+/// factorisation); only if that does not converge in [`PCG_MAX`] iterations
+/// is the matrix factorised again. The result is the same step up to the
+/// solve's tolerance ([`PCG_TOL`]), and every choice depends on the
+/// numbers alone (deterministic).
 #[derive(Default)]
 pub struct SymbolicCache {
-    last: Option<(Vec<u32>, Vec<u32>, SymbolicCholesky<u32>)>,
+    last: Option<Kept>,
+}
+
+struct Kept {
+    /// What the pattern was built from: the edge count and the unknowns
+    /// each term touches.
+    key: (usize, Vec<[u32; 4]>),
+    pattern: Pattern,
+    symbolic: SymbolicCholesky<u32>,
+    l_values: Vec<f64>,
+    /// `l_values` holds a factor of a matrix with this pattern.
+    factored: bool,
+    stack: MemBuffer,
+}
+
+/// Conjugate-gradient iterations a step may take before the matrix is
+/// factorised again.
+pub const PCG_MAX: usize = 6;
+
+/// A conjugate-gradient solve is done when the residual is this share of
+/// the right-hand side.
+pub const PCG_TOL: f64 = 1e-10;
+
+/// The vertices with a non-zero coefficient in each term, in a fixed order.
+fn term_key(terms: &[SegmentTerm]) -> Vec<[u32; 4]> {
+    let ends = |q: &tapeshape_measure::SupportPoint| -> [u32; 2] {
+        [
+            if q.t == 1.0 { q.b } else { q.a },
+            if q.t == 0.0 { q.a } else { q.b },
+        ]
+    };
+    terms
+        .iter()
+        .map(|t| {
+            let ([a, b], [c, d]) = (ends(&t.p0), ends(&t.p1));
+            [a, b, c, d]
+        })
+        .collect()
 }
 
 impl SymbolicCache {
-    /// The symbolic factorisation of `pattern`: the kept one if its pattern
-    /// is the same, else a new one (kept in its place).
-    fn get(&mut self, pattern: &Pattern) -> Option<&SymbolicCholesky<u32>> {
+    /// The kept pattern, analysis and factor for these terms: the last
+    /// ones if the terms touch the same unknowns, else new ones.
+    fn prepare(
+        &mut self,
+        n: usize,
+        edges: &[[u32; 2]],
+        terms: &[SegmentTerm],
+        lambda: f64,
+    ) -> Option<&mut Kept> {
+        let key = (edges.len(), term_key(terms));
         let same = self
             .last
             .as_ref()
-            .is_some_and(|(c, r, _)| *c == pattern.col_ptr && *r == pattern.row_idx);
+            .is_some_and(|k| k.key == key && k.pattern.n == n && k.pattern.lambda == lambda);
         if !same {
-            let symbolic = factorize_symbolic_cholesky(
-                pattern.symbolic(),
-                Side::Lower,
-                SymmetricOrdering::Amd,
-                CholeskySymbolicParams::default(),
-            )
-            .ok()?;
-            self.last = Some((pattern.col_ptr.clone(), pattern.row_idx.clone(), symbolic));
+            let pattern = Pattern::new(n, edges, terms, lambda);
+            let symbolic_same = self.last.as_ref().is_some_and(|k| {
+                k.pattern.col_ptr == pattern.col_ptr && k.pattern.row_idx == pattern.row_idx
+            });
+            if symbolic_same {
+                let kept = self.last.as_mut().expect("checked");
+                kept.key = key;
+                kept.pattern = pattern;
+            } else {
+                let symbolic = factorize_symbolic_cholesky(
+                    pattern.symbolic(),
+                    Side::Lower,
+                    SymmetricOrdering::Amd,
+                    CholeskySymbolicParams::default(),
+                )
+                .ok()?;
+                let req = symbolic
+                    .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
+                    .or(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
+                self.last = Some(Kept {
+                    key,
+                    l_values: vec![0.0; symbolic.len_val()],
+                    factored: false,
+                    stack: MemBuffer::try_new(req).ok()?,
+                    pattern,
+                    symbolic,
+                });
+            }
         }
-        self.last.as_ref().map(|(_, _, s)| s)
+        self.last.as_mut()
     }
+}
+
+impl Kept {
+    fn factorise(&mut self, values: &[f64]) -> bool {
+        let a = SparseColMatRef::new(self.pattern.symbolic(), values);
+        self.factored = self
+            .symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut self.l_values,
+                a,
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(&mut self.stack),
+                Default::default(),
+            )
+            .is_ok();
+        self.factored
+    }
+
+    fn solve(&mut self, rhs: &mut [f64]) {
+        let n = rhs.len();
+        LltRef::new(&self.symbolic, &self.l_values).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(rhs, n, 1),
+            Par::Seq,
+            MemStack::new(&mut self.stack),
+        );
+    }
+
+    /// `out = A v` for the symmetric matrix whose lower triangle `values`
+    /// holds in the pattern's order.
+    fn times(&self, values: &[f64], v: &[f64], out: &mut [f64]) {
+        let p = &self.pattern;
+        out.iter_mut().for_each(|o| *o = 0.0);
+        for j in 0..p.n {
+            let (s, e) = (p.col_ptr[j] as usize, p.col_ptr[j + 1] as usize);
+            let vj = v[j];
+            let mut acc = 0.0;
+            for (&i, &a) in p.row_idx[s..e].iter().zip(&values[s..e]) {
+                let i = i as usize;
+                if i == j {
+                    acc += a * vj;
+                } else {
+                    out[i] += a * vj;
+                    acc += a * v[i];
+                }
+            }
+            out[j] += acc;
+        }
+    }
+
+    /// Solves `A x = b` (`values` as in [`Kept::times`]) by conjugate
+    /// gradients preconditioned with the kept factor, from `x = 0`, into
+    /// `x`; false if it did not converge in [`PCG_MAX`] iterations.
+    fn pcg(&mut self, values: &[f64], b: &[f64], x: &mut [f64], work: &mut PcgWork) -> bool {
+        let PcgWork { r, z, p, q } = work;
+        x.iter_mut().for_each(|v| *v = 0.0);
+        r.copy_from_slice(b);
+        let b_norm = dot(b, b).sqrt();
+        if b_norm == 0.0 {
+            return true;
+        }
+        z.copy_from_slice(r);
+        self.solve(z);
+        p.copy_from_slice(z);
+        let mut rz = dot(r, z);
+        for _ in 0..PCG_MAX {
+            self.times(values, p, q);
+            let pq = dot(p, q);
+            if pq.is_nan() || pq <= 0.0 {
+                return false;
+            }
+            let alpha = rz / pq;
+            for ((xi, ri), (pi, qi)) in x.iter_mut().zip(r.iter_mut()).zip(p.iter().zip(q.iter())) {
+                *xi += alpha * pi;
+                *ri -= alpha * qi;
+            }
+            if dot(r, r).sqrt() <= PCG_TOL * b_norm {
+                return true;
+            }
+            z.copy_from_slice(r);
+            self.solve(z);
+            let rz_new = dot(r, z);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for (pi, zi) in p.iter_mut().zip(z.iter()) {
+                *pi = zi + beta * *pi;
+            }
+        }
+        false
+    }
+}
+
+/// The conjugate-gradient vectors (3V each), allocated once per run.
+struct PcgWork {
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    q: Vec<f64>,
 }
 
 /// Minimises the step-2 objective `obj` from `x0` (flat, 3V, mm) by
 /// damped Gauss-Newton (see the module docs), asking `watch(n)` before
 /// evaluation `n` as [`crate::lbfgs::minimise_watched`] does; `cache`
-/// keeps the symbolic factorisation between the runs of one step. Returns
-/// the best point and what the run did.
+/// keeps the pattern, its analysis and the last factor between the runs
+/// of one step ([`SymbolicCache`]). Returns the best point and what the
+/// run did.
 ///
 /// Stops when an accepted step's decrease, times how far the quadratic
 /// model's prediction of it was off (`|1 - actual / predicted|`, the share
@@ -304,23 +482,26 @@ pub fn minimise_vertices(
         return Ok((x0, info(0, evaluations, f0, f, Termination::NoVariables)));
     }
     let (terms, edges, lambda) = obj.parts();
-    let pattern = Pattern::new(n, edges, terms, lambda);
-    let symbolic = cache.get(&pattern).ok_or(MinimiseError::NoFactorisation)?;
-    let mut factor = Factor::new(symbolic);
+    let kept = cache
+        .prepare(n, edges, terms, lambda)
+        .ok_or(MinimiseError::NoFactorisation)?;
     let mut x = x0;
-    let mut values = vec![0.0; pattern.row_idx.len()];
+    let mut values = vec![0.0; kept.pattern.row_idx.len()];
     let mut delta = vec![0.0; n];
+    let mut rhs = vec![0.0; n];
     let mut x_try = vec![0.0; n];
     let mut g_try = vec![0.0; n];
+    let mut work = PcgWork {
+        r: vec![0.0; n],
+        z: vec![0.0; n],
+        p: vec![0.0; n],
+        q: vec![0.0; n],
+    };
     // Damping: a tiny share of the Laplacian's diagonal scale, so that it
     // only pins the translations until a step is refused.
     let scale = {
-        let s: f64 = pattern
-            .diag
-            .iter()
-            .map(|&p| pattern.laplacian[p as usize])
-            .sum::<f64>()
-            / n as f64;
+        let p = &kept.pattern;
+        let s: f64 = p.diag.iter().map(|&d| p.laplacian[d as usize]).sum::<f64>() / n as f64;
         if s > 0.0 {
             s
         } else {
@@ -339,20 +520,24 @@ pub fn minimise_vertices(
             break Termination::MaxIterations;
         }
         iterations += 1;
-        assemble(&pattern, terms, lambda, &x, mu, &mut values);
-        if factor.factorise(&pattern, &values).is_err() {
-            // Not numerically definite at this damping: damp more.
-            rejects += 1;
-            if rejects >= MAX_REJECTS {
-                break Termination::LineSearchFailed;
+        assemble(&kept.pattern, terms, lambda, &x, mu, &mut values);
+        for (r, gi) in rhs.iter_mut().zip(&g) {
+            *r = -gi;
+        }
+        let solved = kept.factored && kept.pcg(&values, &rhs, &mut delta, &mut work);
+        if !solved {
+            if !kept.factorise(&values) {
+                // Not numerically definite at this damping: damp more.
+                rejects += 1;
+                if rejects >= MAX_REJECTS {
+                    break Termination::LineSearchFailed;
+                }
+                mu = (mu * 10.0).max(1e-3 * scale);
+                continue;
             }
-            mu = (mu * 10.0).max(1e-3 * scale);
-            continue;
+            delta.copy_from_slice(&rhs);
+            kept.solve(&mut delta);
         }
-        for (d, gi) in delta.iter_mut().zip(&g) {
-            *d = -gi;
-        }
-        factor.solve(&mut delta);
         // The quadratic model's decrease: with (H + mu I) delta = -g,
         // -(g . delta + delta^T H delta / 2) = (-g . delta + mu |delta|^2) / 2.
         let predicted = 0.5 * (-dot(&g, &delta) + mu * dot(&delta, &delta));
@@ -428,53 +613,6 @@ fn assemble(
                 k += 1;
             }
         }
-    }
-}
-
-/// The numeric factor and its scratch, allocated once per run.
-struct Factor<'a> {
-    symbolic: &'a SymbolicCholesky<u32>,
-    l_values: Vec<f64>,
-    stack: MemBuffer,
-}
-
-impl<'a> Factor<'a> {
-    fn new(symbolic: &'a SymbolicCholesky<u32>) -> Self {
-        let req = symbolic
-            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
-            .or(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
-        Self {
-            l_values: vec![0.0; symbolic.len_val()],
-            stack: MemBuffer::new(req),
-            symbolic,
-        }
-    }
-
-    fn factorise(&mut self, pattern: &Pattern, values: &[f64]) -> Result<(), ()> {
-        let a = SparseColMatRef::new(pattern.symbolic(), values);
-        self.symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut self.l_values,
-                a,
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut self.stack),
-                Default::default(),
-            )
-            .map(|_| ())
-            .map_err(|_| ())
-    }
-
-    fn solve(&mut self, rhs: &mut [f64]) {
-        let n = rhs.len();
-        let llt = LltRef::new(self.symbolic, &self.l_values);
-        llt.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(rhs, n, 1),
-            Par::Seq,
-            MemStack::new(&mut self.stack),
-        );
     }
 }
 
