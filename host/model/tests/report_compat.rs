@@ -17,8 +17,8 @@ fn a_report_of_the_flat_settings_record_reads_back_as_the_default() {
     let r: PredictionReport = serde_json::from_str(V1).expect("an old report reads back");
     // The old record held that day's default in its own form; the L-BFGS
     // implementation switches are gone and the wall-clock budget became
-    // the evaluation budget. Its step 2 ran L-BFGS (today's default is
-    // Gauss-Newton): it reads back as what it ran.
+    // the evaluation budget. Its step 2 ran L-BFGS: it reads back as that
+    // (the one solver there was), whatever the default is now.
     let mut then = PredictSettings::default();
     then.step2.solver = Step2Solver::paper();
     assert_eq!(r.settings, then);

@@ -11,7 +11,9 @@ fn default_and_paper_resolve() {
     ));
     assert_eq!(d.step1().box_l, Some(3.0));
     assert_eq!(d.step2().weighting, (EnergyWeighting::PerMeasurement, 1e4));
-    assert!(matches!(d.step2().solver, Step2Method::GaussNewton(_)));
+    assert!(
+        matches!(d.step2().solver, Step2Method::Lbfgs(l) if l.line_search == LineSearch::Backtracking && l.stop.history == 5)
+    );
     assert_eq!(d.rounds().max_rounds(), 13);
     let p = PredictSettings::paper().resolve().unwrap();
     match &p.step1().solver {
