@@ -21,7 +21,8 @@
 //! Every experiment takes the prediction settings as flags (see
 //! `settings_from_args`): `--paper` for the paper's exact pipeline, and
 //! `--gn`, `--w1`, `--w2`, `--w2-scale`, `--prior`, `--k1`, `--box`,
-//! `--cont`, `--budget`, `--iters1`, `--iters2`, `--l`, `--lambda`, `--s`.
+//! `--cont`, `--budget`, `--iters1`, `--iters2`, `--solver2 lbfgs|gn` (step 2's
+//! solver), `--l`, `--lambda`, `--s`.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
