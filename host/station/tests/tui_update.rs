@@ -467,6 +467,7 @@ fn history_rows() -> Vec<tapeshape::store::SessionSummary> {
             status: SessionStatus::Done,
             measurement_set: Some("quick".into()),
             notes: None,
+            consent: None,
         },
         current_readings: 1,
         total_readings: 1,
