@@ -40,6 +40,11 @@ enum Command {
     Predict(cli::predict::Args),
     /// Run one of the paper's experiments (and its baselines) and write its tables and figures.
     Eval(cli::eval::Args),
+    /// A customer's data at this station: export it, erase it (here and in the chain), look them up.
+    Customer(cli::customer::Args),
+    /// The chain's head-office hub: serve it (PostgreSQL), add stations and users, a customer in the chain.
+    #[cfg(feature = "hub")]
+    Hub(cli::hub::Args),
 }
 
 fn main() -> ExitCode {
@@ -53,6 +58,9 @@ fn main() -> ExitCode {
         }
     };
     cli::init_logging(args.global.verbose);
+    // Everything the program writes may hold customer data (the store, its
+    // exports, cards, logs): owner-only, 0600 files and 0700 folders.
+    rustix::process::umask(rustix::fs::Mode::from_raw_mode(0o077));
     let result = match args.command {
         Command::Station(a) => cli::station::run(a, &args.global),
         Command::Sessions(a) => cli::sessions::run(a, &args.global),
@@ -63,6 +71,9 @@ fn main() -> ExitCode {
         Command::Train(a) => cli::train::run(a, &args.global),
         Command::Predict(a) => cli::predict::run(a, &args.global),
         Command::Eval(a) => cli::eval::run(a, &args.global),
+        Command::Customer(a) => cli::customer::run(a, &args.global),
+        #[cfg(feature = "hub")]
+        Command::Hub(a) => cli::hub::run(a, &args.global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

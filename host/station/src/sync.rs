@@ -172,6 +172,7 @@ pub struct SyncHandle {
     stop: Arc<AtomicBool>,
     status: Arc<Mutex<SyncStatus>>,
     thread: Option<JoinHandle<()>>,
+    sessions: Sessions,
 }
 
 impl SyncHandle {
@@ -181,6 +182,29 @@ impl SyncHandle {
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .clone()
+    }
+
+    /// Waits up to `timeout` until the hub holds every event written so far
+    /// (by the time of the call); `true` if it does.
+    pub fn wait_synced(&self, timeout: Duration) -> bool {
+        let until = Instant::now() + timeout;
+        let target = self.sessions.store().sync_state().map(|s| s.last_seq);
+        let Ok(target) = target else { return false };
+        loop {
+            let committed = self
+                .sessions
+                .store()
+                .sync_state()
+                .map(|s| s.hub_committed_seq)
+                .unwrap_or(0);
+            if committed >= target {
+                return true;
+            }
+            if Instant::now() >= until {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
     }
 
     /// Stops the task (after its request in flight, if any) and waits for it.
@@ -325,7 +349,7 @@ pub fn spawn(
     let stop = Arc::new(AtomicBool::new(false));
     let status = Arc::new(Mutex::new(SyncStatus::default()));
     let task = Task {
-        sessions,
+        sessions: sessions.clone(),
         client,
         config,
         glb,
@@ -340,6 +364,7 @@ pub fn spawn(
         stop,
         status,
         thread: Some(thread),
+        sessions,
     })
 }
 

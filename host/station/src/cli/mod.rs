@@ -42,9 +42,12 @@ macro_rules! outln {
     }};
 }
 
+pub mod customer;
 pub mod dataset;
 pub mod demo;
 pub mod eval;
+#[cfg(feature = "hub")]
+pub mod hub;
 pub mod measure;
 pub mod predict;
 pub mod session;
@@ -82,6 +85,78 @@ impl Global {
     pub fn open_sessions(&self) -> anyhow::Result<Sessions> {
         self.open_store().map(Sessions::new)
     }
+}
+
+/// Options of the front ends that sync to the chain's hub (`station`,
+/// `demo`). Without `--hub` nothing is sent anywhere (the outbox is kept,
+/// so a station can join a chain later with its history).
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct HubArgs {
+    /// The chain's head-office hub to sync this station's sessions to
+    /// (http://HOST:PORT or https://HOST:PORT); needs --station-token.
+    #[arg(long, value_name = "URL", requires = "station_token")]
+    pub hub: Option<String>,
+
+    /// File holding this station's token (`tapeshape hub add-station NAME`
+    /// prints it; keep the file owner-only).
+    #[arg(long, value_name = "FILE", requires = "hub")]
+    pub station_token: Option<PathBuf>,
+
+    /// PEM file with the certificate of the CA that signed the hub's TLS
+    /// certificate (a private CA or a self-signed hub), instead of the
+    /// public web's roots.
+    #[arg(long, value_name = "FILE", requires = "hub")]
+    pub hub_ca: Option<PathBuf>,
+}
+
+impl HubArgs {
+    /// The sync settings, if a hub is given.
+    pub fn config(&self) -> anyhow::Result<Option<crate::sync::SyncConfig>> {
+        let (Some(hub), Some(token)) = (&self.hub, &self.station_token) else {
+            return Ok(None);
+        };
+        let token = crate::sync::read_token(token)?;
+        let mut config = crate::sync::SyncConfig::new(hub, token)?;
+        if let Some(ca) = &self.hub_ca {
+            config.ca_pem =
+                Some(std::fs::read(ca).with_context(|| {
+                    format!("reading the hub's CA certificate {}", ca.display())
+                })?);
+        }
+        Ok(Some(config))
+    }
+
+    /// Starts the sync task for `sessions` if a hub is given.
+    pub fn start(&self, sessions: &Sessions) -> anyhow::Result<Option<crate::sync::SyncHandle>> {
+        let Some(config) = self.config()? else {
+            return Ok(None);
+        };
+        let hub = config.hub.clone();
+        let glb: crate::sync::GlbSource = std::sync::Arc::new(crate::services::station::glb_of);
+        let handle = crate::sync::spawn(sessions.clone(), config, glb)
+            .with_context(|| format!("starting the sync with the hub {hub}"))?;
+        tracing::info!(%hub, "syncing with the hub");
+        Ok(Some(handle))
+    }
+}
+
+/// Stops a sync task after giving it up to `wait` to send what is left;
+/// says on stderr if something is still unsent (it goes on the next start).
+pub fn finish_sync(sync: Option<crate::sync::SyncHandle>, wait: std::time::Duration) {
+    let Some(sync) = sync else { return };
+    let synced = sync.wait_synced(wait);
+    let st = sync.status();
+    if !synced {
+        eprintln!(
+            "the hub holds this station's events up to {} of {}; the rest is sent on the next              start with --hub{}",
+            st.committed_through,
+            st.last_seq,
+            st.last_error
+                .map(|e| format!(" (last error: {e})"))
+                .unwrap_or_default()
+        );
+    }
+    sync.stop();
 }
 
 /// Sets up logging to stderr: level from `-v` unless `TAPESHAPE_LOG` is set.
