@@ -203,7 +203,10 @@ scene.add(sun);
 const controls = new OrbitControls(camera, canvas);
 const render = () => renderer.render(scene, camera);
 controls.addEventListener('change', render);
-new GLTFLoader().load('{url}', (gltf) => {{
+// From the origin, not relative to the page: a page opened with
+// credentials in its address may not fetch with them.
+const glbUrl = new URL('{url}', window.location.origin).href;
+new GLTFLoader().load(glbUrl, (gltf) => {{
   const body = gltf.scene;
   // One colour for the body, so that it stands out from the background.
   body.traverse((o) => {{ if (o.isMesh) o.material = new THREE.MeshStandardMaterial({{ color: 0x2f6fd0, roughness: 0.8, side: THREE.DoubleSide }}); }});
