@@ -231,8 +231,14 @@ impl Ctx {
                 customer,
                 set,
                 notes,
+                consent,
             } => {
-                let r = self.sessions.start(&customer, &set, notes.as_deref());
+                let r = self.sessions.start_with_consent(
+                    &customer,
+                    &set,
+                    notes.as_deref(),
+                    Some(consent),
+                );
                 self.send(match r {
                     Ok(v) => Event::SessionReady(v),
                     Err(e) => Event::Failed(e.to_string()),
