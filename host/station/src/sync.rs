@@ -605,7 +605,7 @@ pub fn lookup(
                     sessions: r.sessions,
                 })
             }
-            Err(e) => format!("the hub is unreachable ({e})"),
+            Err(e) => format!("the hub could not be asked ({e})"),
         },
     };
     let store = sessions.store();

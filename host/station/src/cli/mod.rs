@@ -148,7 +148,7 @@ pub fn finish_sync(sync: Option<crate::sync::SyncHandle>, wait: std::time::Durat
     let st = sync.status();
     if !synced {
         eprintln!(
-            "the hub holds this station's events up to {} of {}; the rest is sent on the next              start with --hub{}",
+            "the hub holds this station's events up to {} of {}; the rest is sent on the next start with --hub{}",
             st.committed_through,
             st.last_seq,
             st.last_error
@@ -159,7 +159,24 @@ pub fn finish_sync(sync: Option<crate::sync::SyncHandle>, wait: std::time::Durat
     sync.stop();
 }
 
-/// Sets up logging to stderr: level from `-v` unless `TAPESHAPE_LOG` is set.
+/// Libraries that see requests, headers or connection strings: capped at
+/// info by [`init_logging`].
+pub const WIRE_LOGGERS: [&str; 11] = [
+    "ureq",
+    "ureq_proto",
+    "rustls",
+    "hyper",
+    "hyper_util",
+    "h2",
+    "axum",
+    "axum_server",
+    "tower_http",
+    "tokio_postgres",
+    "postgres_protocol",
+];
+
+/// Sets up logging to stderr: level from `-v` unless `TAPESHAPE_LOG` is set
+/// (the [`WIRE_LOGGERS`] stay at info either way).
 pub fn init_logging(verbose: u8) {
     let default = match verbose {
         0 => "warn",
@@ -167,8 +184,17 @@ pub fn init_logging(verbose: u8) {
         2 => "debug",
         _ => "trace",
     };
-    let filter = tracing_subscriber::EnvFilter::try_from_env("TAPESHAPE_LOG")
+    let mut filter = tracing_subscriber::EnvFilter::try_from_env("TAPESHAPE_LOG")
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    // The HTTP, TLS and PostgreSQL libraries trace what goes over the wire
+    // (ureq's trace level dumps each request, the station's token in its
+    // Authorization header included): they never log below info, whatever
+    // -v or TAPESHAPE_LOG asks, so that no secret reaches a log.
+    for quiet in WIRE_LOGGERS {
+        if let Ok(d) = format!("{quiet}=info").parse() {
+            filter = filter.add_directive(d);
+        }
+    }
     // Ignore the error of a second initialisation (tests may call this).
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
