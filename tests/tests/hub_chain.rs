@@ -44,7 +44,7 @@ fn start_hub(bin: &std::path::Path, url: &str, port: u16, log: &std::path::Path)
         .open(log)
         .unwrap();
     let mut child = Command::new(bin)
-        .args(["-v", "hub", "--listen", &format!("127.0.0.1:{port}")])
+        .args(["-vv", "hub", "--listen", &format!("127.0.0.1:{port}")])
         .env("TAPESHAPE_HUB_DATABASE", url)
         .stdout(Stdio::piped())
         .stderr(err)

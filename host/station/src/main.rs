@@ -42,6 +42,8 @@ enum Command {
     Eval(cli::eval::Args),
     /// A customer's data at this station: export it, erase it (here and in the chain), look them up.
     Customer(cli::customer::Args),
+    /// Send this station's unsent changes to the chain's hub and carry out the erasures it sends, then exit.
+    Sync(cli::sync::Args),
     /// The chain's head-office hub: serve it (PostgreSQL), add stations and users, a customer in the chain.
     #[cfg(feature = "hub")]
     Hub(cli::hub::Args),
@@ -72,6 +74,7 @@ fn main() -> ExitCode {
         Command::Predict(a) => cli::predict::run(a, &args.global),
         Command::Eval(a) => cli::eval::run(a, &args.global),
         Command::Customer(a) => cli::customer::run(a, &args.global),
+        Command::Sync(a) => cli::sync::run(a, &args.global),
         #[cfg(feature = "hub")]
         Command::Hub(a) => cli::hub::run(a, &args.global),
     };

@@ -54,7 +54,23 @@ pub enum Action {
         /// The hub to ask.
         #[command(flatten)]
         hub: HubArgs,
+        /// Also write each session's readings into this folder as a
+        /// measurements file (`STORE-sessionN.json`, owner-only), to
+        /// re-estimate the body from: `tapeshape predict --measurements FILE`.
+        #[arg(long, value_name = "DIR")]
+        save: Option<PathBuf>,
     },
+}
+
+/// A looked-up session's readings as a measurements file for `tapeshape
+/// predict --measurements` (bare numbers in mm).
+pub fn measurements_json(readings: &[(String, u32)]) -> serde_json::Value {
+    let mut m = serde_json::Map::new();
+    m.insert("unit".into(), json!("mm"));
+    for (name, tenth_mm) in readings {
+        m.insert(name.clone(), json!(f64::from(*tenth_mm) / 10.0));
+    }
+    serde_json::Value::Object(m)
 }
 
 /// Everything `store` holds about `customer`, as the export writes it.
@@ -183,7 +199,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
                 erased.len()
             )?;
         }
-        Action::Lookup { id, hub } => {
+        Action::Lookup { id, hub, save } => {
             let config = hub.config()?;
             let client = config.as_ref().map(HubClient::new).transpose()?;
             let station = config.as_ref().map(|c| c.token.station().to_string());
@@ -213,6 +229,28 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
                 )?;
                 for (name, v) in &s.readings {
                     outln!("    {name:<28} {}", format_tenth_mm(*v))?;
+                }
+                if let (Some(dir), false) = (&save, s.readings.is_empty()) {
+                    // Only [A-Za-z0-9_-] of the name the hub sent goes
+                    // into the file name: no path of the hub's choosing.
+                    let store: String = s
+                        .station
+                        .chars()
+                        .map(|c| {
+                            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                                c
+                            } else {
+                                '-'
+                            }
+                        })
+                        .collect();
+                    let file = dir.join(format!("{store}-session{}.json", s.session));
+                    let text = serde_json::to_string_pretty(&measurements_json(&s.readings))?;
+                    write_private(&file, text.as_bytes())?;
+                    outln!(
+                        "    re-estimate: tapeshape predict --measurements {} -o body.glb",
+                        file.display()
+                    )?;
                 }
             }
         }

@@ -53,6 +53,7 @@ pub mod predict;
 pub mod session;
 pub mod sessions;
 pub mod station;
+pub mod sync;
 pub mod train;
 
 /// Options every subcommand takes.
