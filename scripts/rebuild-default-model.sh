@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Rebuilds the default body model embedded in the program
-# (host/engine/models/default.tsm.gz): 400 generated bodies (seed 1) fitted to
+# (host/estimator/models/default.tsm.gz): 400 generated bodies (seed 1) fitted to
 # ANSUR II train-split subjects, measured with paper34, ansur and quick; the
 # first 100 PCA components, basis rounded to f32, gzip-compressed (~18 MB).
 # Deterministic: the same seed and code give the same population and model.
@@ -9,8 +9,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work="${TAPESHAPE_WORK:-$(mktemp -d)}"
-model=host/engine/models/default.tsm.gz
-# The engine embeds the model file at build time: a missing file (first build)
+model=host/estimator/models/default.tsm.gz
+# The estimator embeds the model file at build time: a missing file (first build)
 # is created empty so the program can be built to train the real one.
 [ -f "$model" ] || : > "$model"
 cargo build --release -p tapeshape

@@ -12,7 +12,7 @@ use std::io::Write;
 use std::sync::OnceLock;
 
 use libfuzzer_sys::fuzz_target;
-use tapeshape_engine::predict::Inputs;
+use tapeshape_estimator::Inputs;
 
 /// A folder for the input file, in memory where the system has one (a file
 /// per input on a disk would dominate the run).

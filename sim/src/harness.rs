@@ -6,7 +6,7 @@
 //! thread of its own, as a separate device would, with its two UARTs on pty masters: the tape
 //! simulator writes to [`FirmwareHarness::tape_path`], the station side (through the proxy, or
 //! directly) opens [`FirmwareHarness::host_path`]. That is the same shape as the board under
-//! QEMU ([`crate::qemu::QemuBoard`]), so tests can swap one for the other.
+//! QEMU (`qemu::QemuBoard`, feature `qemu`), so tests can swap one for the other.
 //!
 //! UART semantics on a pty master (what [`PtyUartRx`] and [`PtyUartTx`] add over
 //! `embedded-io-adapters`' plain tokio adapter): a UART with nothing attached receives nothing

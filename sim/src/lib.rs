@@ -18,10 +18,12 @@
 //! * [`proxy`]: the fault-injecting proxy between the firmware's host port and the station.
 //! * [`harness`]: the firmware logic (`tapeshape_firmware::run`) on a host thread between two
 //!   ptys.
-//! * [`qemu`]: the real `mps2-an386` firmware under QEMU, with the same two ptys.
+//! * `qemu` (feature `qemu`, which the end-to-end tests turn on and the station's demo does
+//!   not): the real `mps2-an386` firmware under QEMU, with the same two ptys.
 //!
-//! The simulated customers (ANSUR II test-split people read by the tape) and the simulated
-//! operator of `tapeshape demo` are the station's (`host/station`, its demo command), built on
+//! The simulated customer of `tapeshape demo` (an ANSUR II test-split person read by the tape)
+//! is the station's demo command (`host/station/src/cli/demo.rs`), its simulated tape and
+//! operator the station's `tui/operator.rs` (both in the station's `demo` feature), built on
 //! [`tape`] and [`harness`]; the end-to-end tests' customers with known bodies are in
 //! `tests/tests/known_bodies`.
 
@@ -29,5 +31,6 @@ pub mod faults;
 pub mod harness;
 pub mod proxy;
 pub mod pty;
+#[cfg(feature = "qemu")]
 pub mod qemu;
 pub mod tape;

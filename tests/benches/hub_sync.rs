@@ -111,7 +111,7 @@ fn one_session(
     mut stored: impl FnMut(i64, Instant),
     mut pace: impl FnMut(),
 ) {
-    let consent = if n % 2 == 0 {
+    let consent = if n.is_multiple_of(2) {
         Consent::Keep
     } else {
         Consent::Visit

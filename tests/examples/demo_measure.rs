@@ -1,7 +1,7 @@
 //! The measurement behind `docs/results/demo-e2e.md`: held-out bodies whose
 //! true mesh is known (the first 20 of `tests/tests/known_bodies`), the
 //! `quick` and `ansur` sets, readings exact, with a novice's 1 cm noise, and
-//! with that noise stated as the readings' tolerance; the engine's estimate
+//! with that noise stated as the readings' tolerance; the estimator's estimate
 //! directly (the serial path of the e2e test delivers the same 0.1 mm values,
 //! as that test asserts).
 //!
@@ -20,7 +20,7 @@ mod known_bodies;
 
 use known_bodies::*;
 use tapeshape::estimate::{start_estimate, tape_input};
-use tapeshape_engine::predict::{Inputs, PredictOptions};
+use tapeshape_estimator::{Inputs, PredictOptions};
 
 fn main() {
     let n: usize = match std::env::args().nth(1) {
@@ -67,7 +67,7 @@ fn main() {
                         .push(tape_input(n.clone(), *m, tolerance))
                         .expect("distinct measurement names");
                 }
-                let est = start_estimate(engine(), &readings, &PredictOptions::default())
+                let est = start_estimate(estimator(), &readings, &PredictOptions::default())
                     .expect("the estimate starts")
                     .wait();
                 let d = match est {

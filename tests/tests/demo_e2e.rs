@@ -14,7 +14,7 @@
 //!   reading is reproduced within its ISO 20685-1 maximum allowable error
 //!   (4 mm heights, breadths and small girths, 5 mm segment lengths, 9 mm large
 //!   girths: the standard's accuracy for body dimensions taken from a 3D body,
-//!   the accuracy the engine itself assumes of a reading). The paper's method
+//!   the accuracy the estimator itself assumes of a reading). The paper's method
 //!   interpolates the measurements it is given; a unit slip, a wrong
 //!   measurement order or a lost reading fails this by centimetres;
 //! * **the readings carry information:** over the bodies, the estimates are
@@ -43,7 +43,7 @@ use tapeshape::cli::station::{plan, record, RecordOptions};
 use tapeshape::estimate::{export, start_estimate, tape_input, MeshFormat, SessionInfo};
 use tapeshape::session::Sessions;
 use tapeshape::store::Store;
-use tapeshape_engine::predict::{Inputs, PredictOptions};
+use tapeshape_estimator::{Inputs, PredictOptions};
 use tapeshape_mesh::Vec3;
 use tapeshape_sim::harness::{FirmwareHarness, HarnessConfig};
 use tapeshape_sim::pty::TtyStream;
@@ -136,7 +136,7 @@ fn estimate_export_and_compare(
             .push(tape_input(n.clone(), *v as f64 / 10_000.0, None))
             .unwrap();
     }
-    let job = start_estimate(engine(), &readings, &PredictOptions::default()).unwrap();
+    let job = start_estimate(estimator(), &readings, &PredictOptions::default()).unwrap();
     let mut last = 0.0;
     while !job.is_finished() {
         if let Some(p) = job.next_progress(Duration::from_millis(50)) {
@@ -310,7 +310,7 @@ fn the_headless_demo_binary_stores_every_reading_and_exports_a_body_that_fits_th
         String::from_utf8_lossy(&out.stderr)
     );
     // The store holds exactly the simulated person's readings, once each.
-    let set = tapeshape_engine::measure::MeasurementSet::load("quick").unwrap();
+    let set = tapeshape_measure::MeasurementSet::load("quick").unwrap();
     let customer = tapeshape::cli::demo::demo_customer(&set, seed).unwrap();
     let store = Store::open(&data).unwrap();
     let sessions = store.list_sessions().unwrap();

@@ -16,9 +16,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let pack = tapeshape_body::pack::read_sources(&PathBuf::from(src))?;
     let blob = pack.encode();
     let dst = PathBuf::from(dst);
-    let tmp = dst.with_extension("tmp");
-    std::fs::write(&tmp, &blob)?;
-    std::fs::rename(&tmp, &dst)?;
+    tapeshape_common::fs::write_atomic(&dst, &blob)?;
     let entries: usize = pack.targets.iter().map(|t| t.index.len()).sum();
     println!(
         "wrote {} ({} bytes): {} base vertices, {} targets, {} offsets",

@@ -55,13 +55,12 @@ pub enum PhenotypeError {
         caucasian: f64,
     },
     /// A local-change label that the model does not have.
-    #[error(
-        "unknown local change `{label}`; did you mean `{suggestion}`? (see LocalChanges::labels())"
-    )]
+    #[error("unknown local change `{label}`{suggestion} (see LocalChanges::labels())")]
     UnknownLocalChange {
         /// Label given.
         label: String,
-        /// Closest known label by edit distance.
+        /// `"; did you mean `x`?"` for the closest known labels
+        /// ([`tapeshape_common::suggest`]), or empty.
         suggestion: String,
     },
     /// A local-change value outside [-1, 1] or not a number.
@@ -232,21 +231,19 @@ pub fn local_change_labels() -> &'static [String] {
     })
 }
 
-/// Index of a local-change label, or an error suggesting the closest label
-/// (edit distance counting a swap of two neighbouring letters as one edit).
+/// Index of a local-change label, or an error suggesting the closest labels
+/// ([`tapeshape_common::suggest::did_you_mean`]).
 pub(crate) fn local_change_index(label: &str) -> Result<usize, PhenotypeError> {
     let labels = local_change_labels();
     if let Some(i) = labels.iter().position(|l| l == label) {
         return Ok(i);
     }
-    let suggestion = labels
-        .iter()
-        .min_by_key(|l| strsim::osa_distance(l, label))
-        .cloned()
-        .unwrap_or_default();
     Err(PhenotypeError::UnknownLocalChange {
         label: label.to_string(),
-        suggestion,
+        suggestion: tapeshape_common::suggest::did_you_mean(
+            label,
+            labels.iter().map(String::as_str),
+        ),
     })
 }
 
@@ -408,7 +405,7 @@ mod tests {
             e,
             PhenotypeError::UnknownLocalChange {
                 label: "measure-wiast-circ-incr".into(),
-                suggestion: "measure-waist-circ-incr".into()
+                suggestion: "; did you mean `measure-waist-circ-incr`?".into()
             }
         );
         assert!(lc.set("measure-waist-circ-incr", 1.5).is_err());

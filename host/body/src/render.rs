@@ -15,6 +15,7 @@
 use std::path::Path;
 
 use image::{Rgb, RgbImage};
+use tapeshape_mesh::vec3::{cross, dot, norm, triangle_normal};
 use tapeshape_mesh::{Mesh, Vec3};
 
 /// Errors from saving pictures.
@@ -72,11 +73,7 @@ impl View {
             View::Custom { toward_camera, up } => (toward_camera, up),
         };
         // right = up x toward_camera (right-handed screen: right, up, out).
-        let r = [
-            u[1] * c[2] - u[2] * c[1],
-            u[2] * c[0] - u[0] * c[2],
-            u[0] * c[1] - u[1] * c[0],
-        ];
+        let r = cross(u, c);
         (r, u, c)
     }
 }
@@ -120,24 +117,12 @@ pub struct Panel {
     pub labels: bool,
 }
 
-fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// Area-weighted vertex normals (unit; zero for unused vertices).
 pub fn vertex_normals(mesh: &Mesh) -> Vec<Vec3> {
     let mut n = vec![[0.0; 3]; mesh.vertices.len()];
     for f in mesh.faces() {
         let [a, b, c] = f.map(|i| mesh.vertices[i as usize]);
-        let (u, v) = (
-            [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
-            [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
-        );
-        let fnrm = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
+        let fnrm = triangle_normal(a, b, c);
         for &i in f {
             for k in 0..3 {
                 n[i as usize][k] += fnrm[k];
@@ -145,7 +130,7 @@ pub fn vertex_normals(mesh: &Mesh) -> Vec<Vec3> {
         }
     }
     for v in &mut n {
-        let l = dot(*v, *v).sqrt();
+        let l = norm(*v);
         if l > 0.0 {
             *v = v.map(|c| c / l);
         }
@@ -227,7 +212,7 @@ pub fn render_panel(
             c[1] + 0.5 * u[1] - 0.4 * r[1],
             c[2] + 0.5 * u[2] - 0.4 * r[2],
         ];
-        let n = dot(l, l).sqrt();
+        let n = norm(l);
         l.map(|x| x / n)
     };
     let normals = vertex_normals(mesh);
@@ -440,17 +425,18 @@ pub fn fill_rect(img: &mut RgbImage, x: i64, y: i64, w: i64, h: i64, colour: [u8
     }
 }
 
-/// Saves `img` as PNG at `path`, writing a temporary file in the same folder
-/// first and renaming it, so a reader never sees a half-written picture.
+/// Saves `img` as PNG at `path` with the one atomic, fsynced write
+/// ([`tapeshape_common::fs::write_atomic`]), so a reader never sees a
+/// half-written picture.
 pub fn save_png(img: &RgbImage, path: &Path) -> Result<(), RenderError> {
     let err = |e: &dyn std::fmt::Display| RenderError::Write {
         path: path.to_path_buf(),
         detail: e.to_string(),
     };
-    let tmp = path.with_extension("png.tmp");
-    img.save_with_format(&tmp, image::ImageFormat::Png)
+    let mut png = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut png, image::ImageFormat::Png)
         .map_err(|e| err(&e))?;
-    std::fs::rename(&tmp, path).map_err(|e| err(&e))
+    tapeshape_common::fs::write_atomic(path, png.get_ref()).map_err(|e| err(&e))
 }
 
 #[cfg(test)]

@@ -144,8 +144,7 @@ fn parts_lie_where_their_joints_say() {
             j.0
         }
     };
-    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    use tapeshape_mesh::vec3::{dot, sub};
     // The head part holds the vertex landmark, the feet the heel points.
     assert!(part_vertices("head").contains(&a.landmarks["vertex"]));
     assert!(part_vertices("foot_right").contains(&a.landmarks["heel_bottom_right"]));

@@ -220,7 +220,7 @@ fn bad_parameters_are_clear_errors() {
         Param::local("nose-hump-inc").unwrap_err(),
         PhenotypeError::UnknownLocalChange {
             label: "nose-hump-inc".into(),
-            suggestion: "nose-hump-incr".into()
+            suggestion: "; did you mean `nose-hump-incr`?".into()
         }
     );
 }

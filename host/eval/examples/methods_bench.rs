@@ -17,14 +17,14 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use tapeshape_engine::dataset::{generate_population, Dataset, PopulationSettings};
-use tapeshape_engine::measure::MeasurementSet;
 use tapeshape_eval::methods::{
     FeatureAnalysis, GeneratorFit, GeneratorFitSettings, Ours, RbfInterpolation, RbfSettings,
     Sgplvm, SgplvmSettings, StepOneOnly,
 };
 use tapeshape_eval::{Method, TrainingData};
+use tapeshape_measure::MeasurementSet;
 use tapeshape_model::PredictSettings;
+use tapeshape_population::{generate_population, Dataset, PopulationSettings};
 
 fn cached(n: usize, seed: u64) -> Dataset {
     let dir = PathBuf::from(concat!(
@@ -70,7 +70,7 @@ fn main() {
     let n_test = args.get(1).copied().unwrap_or(10);
     let train = cached(n_train, 1);
     let test = cached(n_test, env_usize("TEST_SEED").map_or(2, |s| s as u64));
-    let anatomy = tapeshape_engine::body::anatomy::anatomy();
+    let anatomy = tapeshape_body::anatomy::anatomy();
     let compiled = Arc::new(
         MeasurementSet::builtin("paper34")
             .unwrap()

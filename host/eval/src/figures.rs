@@ -14,11 +14,11 @@ use std::path::Path;
 use std::sync::Arc;
 
 use image::RgbImage;
-use tapeshape_engine::body::render::{
+use tapeshape_body::render::{
     diverging_colour, draw_text, fill_rect, hstack, render_panel, save_png, vertex_normals, vstack,
     Colouring, Panel, RenderError, View,
 };
-use tapeshape_engine::mesh::{Mesh, Topology, Vec3};
+use tapeshape_mesh::{Mesh, Topology, Vec3};
 
 /// Skin-like grey-beige for shaded bodies.
 pub const SKIN: [u8; 3] = [222, 196, 170];

@@ -1,7 +1,8 @@
-//! Evaluation of the shape engine (issue 6): the baselines the paper compares
+//! Evaluation of the shape estimation (issue 6): the baselines the paper compares
 //! with, behind the same predict interface as the method, and the paper's
 //! experiments as commands that regenerate their tables and figures
-//! (`tapeshape eval NAME --out docs/results/NAME`).
+//! (`cargo run --release -p tapeshape-eval -- NAME --out docs/results/NAME`,
+//! `src/main.rs`).
 
 pub mod experiments;
 pub mod figures;

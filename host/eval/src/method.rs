@@ -3,12 +3,12 @@
 //! answers [`Method::predict`] with a mesh in the template topology.
 //!
 //! Units and frame: metres, station frame (Z up, +Y the body's front, +X the
-//! body's right), as everywhere in the engine.
+//! body's right), as everywhere in tapeshape.
 
 use std::sync::Arc;
 
-use tapeshape_engine::measure::CompiledSet;
-use tapeshape_engine::mesh::{Topology, Vec3};
+use tapeshape_measure::CompiledSet;
+use tapeshape_mesh::{Topology, Vec3};
 
 /// What every method is trained on: N registered bodies in the template
 /// topology and their M measurements of one measurement set.

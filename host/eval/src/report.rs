@@ -34,8 +34,9 @@ pub enum ReportError {
     },
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder and
-/// a rename (a reader never sees a partial file).
+/// Writes `bytes` to `path` (creating its folder) with the one atomic,
+/// fsynced write ([`tapeshape_common::fs::write_atomic`]): a reader never
+/// sees a partial table.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
     let io = |source| ReportError::Io {
         path: path.to_path_buf(),
@@ -46,11 +47,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
             std::fs::create_dir_all(dir).map_err(io)?;
         }
     }
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    std::fs::write(&tmp, bytes).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    tapeshape_common::fs::write_atomic(path, bytes).map_err(io)
 }
 
 /// One table cell.
@@ -381,7 +378,7 @@ mod tests {
     #[test]
     fn report_writes_every_file() {
         let dir = std::env::temp_dir().join(format!("tapeshape-report-{}", std::process::id()));
-        let mut r = Report::new("T", "tapeshape eval x --out d");
+        let mut r = Report::new("T", "tapeshape-eval x --out d");
         r.text("hello");
         r.table(sample());
         r.write(&dir).unwrap();
@@ -389,7 +386,7 @@ mod tests {
             assert!(dir.join(f).is_file(), "{f} missing");
         }
         let md = std::fs::read_to_string(dir.join("README.md")).unwrap();
-        assert!(md.contains("tapeshape eval x --out d"));
+        assert!(md.contains("tapeshape-eval x --out d"));
         assert!(!std::fs::read_dir(&dir).unwrap().any(|e| e
             .unwrap()
             .file_name()

@@ -5,13 +5,13 @@
 
 use std::sync::Arc;
 
-use tapeshape_engine::dataset::{generate_population, PopulationSettings};
-use tapeshape_engine::measure::MeasurementSet;
-use tapeshape_engine::mesh::Vec3;
 use tapeshape_eval::experiments::common::{
     informative, measure_all, run_all, training_data, Case, Dimensions, Reference,
 };
 use tapeshape_eval::{Method, MethodError, MethodOutput};
+use tapeshape_measure::MeasurementSet;
+use tapeshape_mesh::Vec3;
+use tapeshape_population::{generate_population, PopulationSettings};
 
 /// Returns the stored body whose measurements equal the targets.
 struct Truth {
@@ -66,7 +66,7 @@ fn known_answers_give_known_errors() {
     )
     .unwrap();
     let set = MeasurementSet::load("paper34").unwrap();
-    let anatomy = tapeshape_engine::body::anatomy::anatomy();
+    let anatomy = tapeshape_body::anatomy::anatomy();
     let train: Vec<Vec<Vec3>> = pop.bodies[..6].to_vec();
     let held: Vec<Vec<Vec3>> = pop.bodies[6..].to_vec();
     let data = training_data(train, &pop.topology, &set, &anatomy).unwrap();

@@ -1,9 +1,9 @@
 //! The quick mode of `body-synthetic` with every method, as CI runs it
-//! (`tapeshape eval body-synthetic --out DIR --quick`): it must write its
+//! (`tapeshape-eval body-synthetic --out DIR --quick`): it must write its
 //! tables and figures, and the paper's method must beat feature analysis
 //! and SGPLVM in every column (the checks the CLI enforces).
 //!
-//! About a minute in the dev profile (engine crates are opt-level 3 there).
+//! About a minute in the dev profile (the numeric crates are opt-level 3 there).
 
 use tapeshape_eval::experiments::{all_methods, run, Experiment, Options};
 
@@ -13,7 +13,7 @@ fn quick_body_synthetic_beats_feature_analysis_and_sgplvm() {
     let opts = Options {
         out: dir.clone(),
         quick: true,
-        command: "tapeshape eval body-synthetic --quick (test)".into(),
+        command: "tapeshape-eval body-synthetic --quick (test)".into(),
     };
     let res = run(Experiment::BodySynthetic, &opts, &all_methods).expect("quick run");
     // Both rivals were trained and compared in all six columns.

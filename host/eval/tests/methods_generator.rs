@@ -7,7 +7,7 @@ mod methods_common;
 use std::time::Instant;
 
 use methods_common::{all_given, fixture, mean_body, mean_error_mm, measure};
-use tapeshape_engine::body::{BodyModel, LocalChanges, Phenotype};
+use tapeshape_body::{BodyModel, LocalChanges, Phenotype};
 use tapeshape_eval::methods::{GeneratorFit, GeneratorFitSettings};
 use tapeshape_eval::Method;
 

@@ -9,10 +9,12 @@
 use std::sync::Arc;
 
 use rayon::prelude::*;
+use tapeshape_common::suggest::did_you_mean;
+use tapeshape_mesh::vec3::{cross, dot, norm, sub};
 use tapeshape_mesh::{Anatomy, Topology, Vec3};
 
 use crate::cut::{convex_hull, CutError, CutPoint, PartCut};
-use crate::error::{suggest, MeasureError};
+use crate::error::MeasureError;
 use crate::geodesic::{EdgeGraph, GeodesicMethod, PathError};
 use crate::set::{Kind, MeasurementSet, DEFAULT_FLOOR};
 use crate::support::{Measured, Support, SupportPoint};
@@ -83,7 +85,10 @@ impl MeasurementSet {
                         MeasureError::UnknownLandmark {
                             measurement: def.name.clone(),
                             landmark: name.to_string(),
-                            suggestion: suggest(name, anatomy.landmarks.keys().map(String::as_str)),
+                            suggestion: did_you_mean(
+                                name,
+                                anatomy.landmarks.keys().map(String::as_str),
+                            ),
                         }
                     })?;
                     if v as usize >= n_vertices {
@@ -111,7 +116,10 @@ impl MeasurementSet {
                         .ok_or_else(|| MeasureError::UnknownPart {
                             measurement: def.name.clone(),
                             part: part.clone(),
-                            suggestion: suggest(part, anatomy.parts.keys().map(String::as_str)),
+                            suggestion: did_you_mean(
+                                part,
+                                anatomy.parts.keys().map(String::as_str),
+                            ),
                         })?;
                     if let Some(&bad) = t.iter().find(|&&f| f as usize >= n_faces) {
                         return Err(MeasureError::PartTriangleOutOfRange {
@@ -212,24 +220,14 @@ impl MeasurementSet {
 /// with `hint`; `None` when the three points are (nearly) collinear or not finite.
 fn plane_normal(p: &[Vec3], a: u32, b: u32, c: u32, hint: Vec3) -> Option<Vec3> {
     let (pa, pb, pc) = (p[a as usize], p[b as usize], p[c as usize]);
-    let u = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
-    let v = [pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]];
-    let n = [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ];
-    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-    let scale = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt()
-        * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let (u, v) = (sub(pb, pa), sub(pc, pa));
+    let n = cross(u, v);
+    let l = norm(n);
+    let scale = norm(u) * norm(v);
     if !l.is_finite() || l <= 1e-9 * scale || l == 0.0 {
         return None;
     }
-    let s = if n[0] * hint[0] + n[1] * hint[1] + n[2] * hint[2] < 0.0 {
-        -1.0
-    } else {
-        1.0
-    };
+    let s = if dot(n, hint) < 0.0 { -1.0 } else { 1.0 };
     Some([s * n[0] / l, s * n[1] / l, s * n[2] / l])
 }
 

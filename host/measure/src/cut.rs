@@ -19,6 +19,7 @@
 //! thirty lines, and the support (which edge, which `t`) must be carried
 //! through the hull, which general-purpose geometry crates do not do.
 
+use tapeshape_mesh::vec3::{cross, dot, sub};
 use tapeshape_mesh::{Topology, Vec3};
 
 /// How far (metres) from the anchor a cut curve may pass and still count as
@@ -54,20 +55,6 @@ pub(crate) enum CutError {
     Misses,
     /// This vertex has a non-finite coordinate.
     NonFinite(u32),
-}
-
-fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: Vec3, b: Vec3) -> Vec3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// Squared distance from `p` to segment `[a, b]`.

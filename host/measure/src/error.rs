@@ -156,33 +156,3 @@ pub enum MeasureError {
         len: usize,
     },
 }
-
-/// `"; did you mean `best`?"` for the known name closest to `name`, or empty
-/// when nothing is reasonably close (normalised Levenshtein similarity < 0.5).
-pub(crate) fn suggest<'a>(name: &str, known: impl IntoIterator<Item = &'a str>) -> String {
-    let mut best: Option<(f64, &str)> = None;
-    for k in known {
-        let s = strsim::normalized_levenshtein(name, k);
-        if best.is_none_or(|(b, _)| s > b) {
-            best = Some((s, k));
-        }
-    }
-    match best {
-        Some((s, k)) if s >= 0.5 => format!("; did you mean `{k}`?"),
-        _ => String::new(),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::suggest;
-
-    #[test]
-    fn suggests_close_names_only() {
-        assert_eq!(
-            suggest("acromion_rigth", ["acromion_right", "acromion_left"]),
-            "; did you mean `acromion_right`?"
-        );
-        assert_eq!(suggest("zzzz", ["acromion_right"]), "");
-    }
-}

@@ -21,6 +21,7 @@
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
+use tapeshape_mesh::vec3::{add, distance as dist, dot, scale, sub};
 use tapeshape_mesh::{Topology, Vec3};
 
 /// CSR adjacency of the edge graph, plus (for the `unfolded` method) each
@@ -88,11 +89,6 @@ impl Ord for Item {
     }
 }
 
-fn dist(p: Vec3, q: Vec3) -> f64 {
-    let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
-    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
-}
-
 fn finite(p: Vec3) -> bool {
     p.iter().all(|x| x.is_finite())
 }
@@ -104,17 +100,17 @@ fn finite(p: Vec3) -> bool {
 /// `length = |c - q| + |q - d|` in 3D, because each triangle is isometric to
 /// its unfolded copy and `q` lies on the shared edge.
 fn across(pc: Vec3, pa: Vec3, pb: Vec3, pd: Vec3) -> Option<(f64, f64)> {
-    let e = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
-    let l2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+    let e = sub(pb, pa);
+    let l2 = dot(e, e);
     if l2.is_nan() || l2 <= 0.0 {
         return None;
     }
     let l = l2.sqrt();
     let u = [e[0] / l, e[1] / l, e[2] / l];
     let coords = |q: Vec3| {
-        let r = [q[0] - pa[0], q[1] - pa[1], q[2] - pa[2]];
-        let x = r[0] * u[0] + r[1] * u[1] + r[2] * u[2];
-        let h2 = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) - x * x;
+        let r = sub(q, pa);
+        let x = dot(r, u);
+        let h2 = dot(r, r) - x * x;
         (x, h2.max(0.0).sqrt())
     };
     let (xc, hc) = coords(pc);
@@ -127,7 +123,7 @@ fn across(pc: Vec3, pa: Vec3, pb: Vec3, pd: Vec3) -> Option<(f64, f64)> {
     if !(t > 0.0 && t < 1.0) {
         return None;
     }
-    let q = [pa[0] + t * e[0], pa[1] + t * e[1], pa[2] + t * e[2]];
+    let q = add(pa, scale(e, t));
     Some((t, dist(pc, q) + dist(q, pd)))
 }
 

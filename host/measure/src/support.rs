@@ -1,6 +1,7 @@
 //! The support of a measurement: points as convex combinations of at most two
 //! vertices, and the segments whose lengths add up to the value.
 
+use tapeshape_mesh::vec3::{dot, norm, sub};
 use tapeshape_mesh::Vec3;
 
 /// A point `q = (1 - t) * p[a] + t * p[b]` on the mesh. A vertex itself is
@@ -58,10 +59,10 @@ impl Support {
             .map(|s| {
                 let q0 = self.points[s[0] as usize].position(p);
                 let q1 = self.points[s[1] as usize].position(p);
-                let d = [q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]];
+                let d = sub(q1, q0);
                 match self.axis {
-                    Some(n) => (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]).abs(),
-                    None => (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt(),
+                    Some(n) => dot(n, d).abs(),
+                    None => norm(d),
                 }
             })
             .sum()
@@ -79,10 +80,10 @@ impl Support {
         for s in &self.segments {
             let (s0, s1) = (self.points[s[0] as usize], self.points[s[1] as usize]);
             let (q0, q1) = (s0.position(p), s1.position(p));
-            let d = [q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]];
+            let d = sub(q1, q0);
             let g = match self.axis {
                 Some(n) => {
-                    let proj = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+                    let proj = dot(n, d);
                     if proj == 0.0 {
                         continue;
                     }
@@ -90,7 +91,7 @@ impl Support {
                     [sgn * n[0], sgn * n[1], sgn * n[2]]
                 }
                 None => {
-                    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    let l = norm(d);
                     if l == 0.0 {
                         continue;
                     }

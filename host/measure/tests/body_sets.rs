@@ -2,7 +2,7 @@
 //! (tapeshape-body) and measures plausible values on the template and on
 //! generated bodies: each ANSUR-mapped value must lie within ANSUR II's
 //! observed range (men and women together, from the survey's table of
-//! dimensions committed as `host/engine/data/ansur2/definitions.csv`),
+//! dimensions committed as `host/population/data/ansur2/definitions.csv`),
 //! widened by 15% for the mismatches the sets document (relaxed vs flexed arms,
 //! skin vs bone, synthetic bodies at the edges of the population).
 //! No measurement is skipped: a measurement whose two landmarks are the same
@@ -16,11 +16,11 @@ use tapeshape_mesh::Vec3;
 
 /// ANSUR column -> (min, max) over men and women, millimetres.
 fn ansur_ranges() -> BTreeMap<String, (f64, f64)> {
-    // The survey's table as committed in the repository (the engine embeds
-    // the same folder; origin and licence in its README.md).
+    // The survey's table as committed in the repository (tapeshape-population
+    // embeds the same folder; origin and licence in its README.md).
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../engine/data/ansur2/definitions.csv"
+        "/../population/data/ansur2/definitions.csv"
     );
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let mut out = BTreeMap::new();

@@ -4,46 +4,8 @@
 //! m^2, volumes m^3. Per-face results are indexed like [`Topology::faces`],
 //! per-vertex results like [`Mesh::vertices`].
 
+use crate::vec3::{cross, dot, norm, normalize, sub};
 use crate::{Mesh, MeshError, Topology, Vec3};
-
-/// `a - b`.
-#[inline]
-pub fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// Cross product `a x b`.
-#[inline]
-pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-/// Dot product.
-#[inline]
-pub fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// Euclidean length.
-#[inline]
-pub fn norm(a: Vec3) -> f64 {
-    dot(a, a).sqrt()
-}
-
-/// `a / |a|`, or zero for a zero vector.
-#[inline]
-pub fn normalize(a: Vec3) -> Vec3 {
-    let n = norm(a);
-    if n > 0.0 {
-        [a[0] / n, a[1] / n, a[2] / n]
-    } else {
-        [0.0; 3]
-    }
-}
 
 /// Axis-aligned bounding box, metres.
 #[derive(Debug, Clone, Copy, PartialEq)]

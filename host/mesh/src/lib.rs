@@ -1,6 +1,6 @@
-//! Triangle meshes for the tapeshape engine.
+//! Triangle meshes for tapeshape.
 //!
-//! Frame and units everywhere in the engine: **metres, f64, Z up, feet at
+//! Frame and units everywhere in tapeshape: **metres, f64, Z up, feet at
 //! z = 0, +Y towards the body's front**, +X towards the body's right side (see
 //! the MakeHuman pack's README, section 2.4). Vertex order is the template's
 //! order and is never changed by any function in this crate.
@@ -11,12 +11,14 @@
 //!
 //! [`geometry`] holds normals, areas, volume, bounding box, connected
 //! components and the triangle-quality check; [`io`] reads and writes OBJ and
-//! PLY and writes binary glTF (converted to glTF's Y-up frame).
+//! PLY and writes binary glTF (converted to glTF's Y-up frame); [`vec3`] is
+//! the one set of small vector operations on [`Vec3`] every crate uses.
 
 use std::sync::Arc;
 
 pub mod geometry;
 pub mod io;
+pub mod vec3;
 
 pub use geometry::{Aabb, Components, TriangleQuality};
 pub use io::MeshIoError;

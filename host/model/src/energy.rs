@@ -24,6 +24,7 @@
 //! refinement calls them in millimetres.
 
 use tapeshape_measure::{Support, SupportPoint};
+use tapeshape_mesh::vec3::{dot, sub};
 use tapeshape_mesh::Vec3;
 
 /// One segment term of `E_m` (see the module docs).
@@ -87,14 +88,6 @@ pub fn segment_terms(
             })
             .collect(),
     )
-}
-
-fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 fn seg_len(d: Vec3, axis: Option<Vec3>) -> f64 {

@@ -7,7 +7,6 @@
 //! a foreign or newer file with a clear message before decoding anything, and
 //! the checksum catches truncation and corruption.
 
-use std::io::Write;
 use std::path::Path;
 
 use tapeshape_mesh::Anatomy;
@@ -31,7 +30,7 @@ pub struct TemplateInfo {
 }
 
 /// The measurement set definitions, kept as the text they were read from so
-/// that this crate does not parse them (the engine does, with tapeshape-measure).
+/// that this crate does not parse them (`tapeshape-estimator` does, with `tapeshape-measure`).
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MeasurementSetText {
     /// Set name (e.g. `paper34`).
@@ -147,22 +146,15 @@ impl ModelFile {
         Ok(())
     }
 
-    /// Writes the file atomically: to `<path>.tmp`, then renamed over `path`.
+    /// Writes the file with the one atomic, fsynced write
+    /// ([`tapeshape_common::fs::write_atomic`]): a reader sees the old
+    /// model or the whole new one.
     pub fn save(&self, path: &Path) -> Result<()> {
         let bytes = self.to_bytes()?;
-        let io = |source| ModelError::Io {
+        tapeshape_common::fs::write_atomic(path, &bytes).map_err(|source| ModelError::Io {
             path: path.display().to_string(),
             source,
-        };
-        let mut tmp_name = path.as_os_str().to_owned();
-        tmp_name.push(".tmp");
-        let tmp = std::path::PathBuf::from(tmp_name);
-        {
-            let mut f = std::fs::File::create(&tmp).map_err(io)?;
-            f.write_all(&bytes).map_err(io)?;
-            f.sync_all().map_err(io)?;
-        }
-        std::fs::rename(&tmp, path).map_err(io)
+        })
     }
 
     /// Reads and validates a model file.

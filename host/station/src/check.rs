@@ -6,38 +6,38 @@
 //! while the tape is still round the customer re-measures in seconds; found
 //! at the estimate, the customer may be gone.
 //!
-//! The statistics are the engine's ([`Engine::predict_reading`]): the
+//! The statistics are the estimator's ([`Estimator::predict_reading`]): the
 //! Gaussian of real people (ANSUR II train split) conditioned on the other
 //! readings when the measurement follows an ANSUR column, else the model's
 //! joint Gaussian of the training population (the same conditional as
 //! `ShapeModel::conditional_measurements`), every reading's ISO 20685-1
-//! tolerance added as noise, exactly as [`Engine::check`] judges a whole set
+//! tolerance added as noise, exactly as [`Estimator::check`] judges a whole set
 //! before estimating. The first reading is judged by the marginal. Only the
 //! new reading is judged (one small conditional per capture), so a reading
 //! kept earlier despite a flag does not blame every later one.
 //!
 //! Levels: `|z| <= `[`WARN_Z`] is [`Flag::Ok`]; up to [`FLAG_Z`] a
 //! [`Flag::Warn`] ("check it"); beyond, a [`Flag::Flag`] ("measure again"),
-//! the level at which the engine's estimate warns (`CONDITIONAL_Z_WARN`).
-//! A value far off that becomes typical when its number is read in another
-//! unit is a unit slip ("waist 32.0 cm fits 32.0 in (81.3 cm): check the
-//! tape's unit"), flagged.
+//! the level at which the estimate warns (`CONDITIONAL_Z_WARN`). A value
+//! far off that becomes typical when its number is read in another unit is
+//! a unit slip ("waist 32.0 cm fits 32.0 in (81.3 cm): check the tape's
+//! unit"), flagged. Both the unit slip and "the estimate will refuse it"
+//! are the estimator's own rules ([`tapeshape_estimator::unit_slip`],
+//! [`ReadingPrediction::refuses`]), so the capture-time check and the
+//! estimate cannot disagree about either.
 
 use serde::Serialize;
-use tapeshape_engine::predict::{
-    Engine, PredictError, ReadingPrediction, Reference, Unit, CONDITIONAL_Z_ERROR,
-    CONDITIONAL_Z_WARN, MARGINAL_Z_ERROR,
+pub use tapeshape_estimator::UnitSlip;
+use tapeshape_estimator::{
+    unit_slip, Estimator, Length, PredictError, ReadingPrediction, Reference, Unit,
+    CONDITIONAL_Z_WARN,
 };
 
 /// Above this many SDs from the prediction a reading is a [`Flag::Warn`]
 /// (3 SD: about 1 honest reading in 370 under a Gaussian).
 pub const WARN_Z: f64 = 3.0;
-/// Above this many SDs it is a [`Flag::Flag`] (the engine's warning level).
+/// Above this many SDs it is a [`Flag::Flag`] (the estimator's warning level).
 pub const FLAG_Z: f64 = CONDITIONAL_Z_WARN;
-/// A unit slip is reported when the number read in another unit lies within
-/// this many SDs of the prediction (and the reading as shown is beyond
-/// [`WARN_Z`]).
-pub const SLIP_Z: f64 = 2.0;
 
 /// How a reading fits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -48,19 +48,6 @@ pub enum Flag {
     Warn,
     /// Far off or a unit slip: measure again.
     Flag,
-}
-
-/// The reading's number read in another unit fits the prediction.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct UnitSlip {
-    /// The unit that makes the number typical.
-    pub unit: Unit,
-    /// The number as shown (in the shown unit).
-    pub number: f64,
-    /// The number read in `unit`, metres.
-    pub metres: f64,
-    /// Its z-score under the same prediction.
-    pub z: f64,
 }
 
 /// The verdict on one captured reading.
@@ -85,7 +72,7 @@ pub struct ReadingCheck {
     /// A unit that explains a far-off value, if any.
     pub unit_slip: Option<UnitSlip>,
     /// True when the estimate would refuse the set with this reading in it
-    /// (both references place it beyond the engine's refusal level).
+    /// (both references place it beyond the estimator's refusal level).
     pub estimate_refuses: bool,
     /// One line for the operator (in the shown unit).
     pub message: String,
@@ -93,11 +80,11 @@ pub struct ReadingCheck {
 
 /// [`check_reading_shown`] with the reading shown in centimetres.
 pub fn check_reading(
-    engine: &Engine,
+    estimator: &Estimator,
     taken: &[(&str, f64)],
     new: (&str, f64),
 ) -> Result<ReadingCheck, PredictError> {
-    check_reading_shown(engine, taken, new, Unit::Cm)
+    check_reading_shown(estimator, taken, new, Unit::Cm)
 }
 
 /// Checks the reading `new` (name, metres) against the readings `taken`
@@ -109,12 +96,12 @@ pub fn check_reading(
 /// Errors: an unknown measurement name (with suggestions), a value that is
 /// not a positive finite length (in `new` or `taken`).
 pub fn check_reading_shown(
-    engine: &Engine,
+    estimator: &Estimator,
     taken: &[(&str, f64)],
     new: (&str, f64),
     shown: Unit,
 ) -> Result<ReadingCheck, PredictError> {
-    check_reading_with_tolerance(engine, taken, new, shown, None)
+    check_reading_with_tolerance(estimator, taken, new, shown, None)
 }
 
 /// [`check_reading_shown`] for an operator whose readings have a known
@@ -125,7 +112,7 @@ pub fn check_reading_shown(
 /// predict it to within a centimetre (heights do: see
 /// `docs/results/demo-e2e.md`). `None`: the ISO classes.
 pub fn check_reading_with_tolerance(
-    engine: &Engine,
+    estimator: &Estimator,
     taken: &[(&str, f64)],
     new: (&str, f64),
     shown: Unit,
@@ -147,32 +134,21 @@ pub fn check_reading_with_tolerance(
             None => others.push((n, v)),
         }
     }
-    let p = engine.predict_reading_with_tolerance(name, &others, tolerance)?;
+    let p = estimator.predict_reading_with_tolerance(name, &others, tolerance)?;
     Ok(judge(name, value, shown, &p))
 }
 
 /// The verdict for `value` (metres) of `name` under the prediction `p`.
 fn judge(name: &str, value: f64, shown: Unit, p: &ReadingPrediction) -> ReadingCheck {
-    let z = (value - p.mean) / p.sd;
+    let z = p.z(value);
     let number = value / shown.metres();
-    let unit_slip = if z.abs() > WARN_Z {
-        Unit::ALL
-            .iter()
-            .filter(|&&u| u != shown)
-            .map(|&u| {
-                let metres = number * u.metres();
-                UnitSlip {
-                    unit: u,
-                    number,
-                    metres,
-                    z: (metres - p.mean) / p.sd,
-                }
-            })
-            .filter(|s| s.z.abs() <= SLIP_Z)
-            .min_by(|a, b| a.z.abs().total_cmp(&b.z.abs()))
-    } else {
-        None
+    let reading = Length {
+        metres: value,
+        unit: shown,
+        unit_typed: true,
+        number,
     };
+    let unit_slip = unit_slip(&reading, p.mean, p.sd);
     let flag = if unit_slip.is_some() || z.abs() > FLAG_Z {
         Flag::Flag
     } else if z.abs() > WARN_Z {
@@ -180,13 +156,7 @@ fn judge(name: &str, value: f64, shown: Unit, p: &ReadingPrediction) -> ReadingC
     } else {
         Flag::Ok
     };
-    let z_train = (value - p.training.0) / p.training.1;
-    let limit = if p.conditioned_on == 0 {
-        MARGINAL_Z_ERROR
-    } else {
-        CONDITIONAL_Z_ERROR
-    };
-    let estimate_refuses = z.abs() > limit && z_train.abs() > limit;
+    let estimate_refuses = p.refuses(value);
     let sym = shown.symbol();
     let show = |m: f64| m / shown.metres();
     let source = match (p.conditioned_on, p.reference) {
@@ -243,10 +213,10 @@ fn judge(name: &str, value: f64, shown: Unit, p: &ReadingPrediction) -> ReadingC
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tapeshape_engine::predict::{Input, Inputs, Length};
+    use tapeshape_estimator::{Input, Inputs, Length};
 
-    fn engine() -> &'static Engine {
-        Engine::default_model().expect("embedded model")
+    fn estimator() -> &'static Estimator {
+        Estimator::default_model().expect("embedded model")
     }
 
     fn taken() -> Vec<(&'static str, f64)> {
@@ -256,7 +226,7 @@ mod tests {
 
     #[test]
     fn the_prediction_itself_scores_zero_and_k_sd_off_scores_k() {
-        let e = engine();
+        let e = estimator();
         let p = e.predict_reading("chest", &taken()).expect("predicts");
         assert_eq!(p.conditioned_on, 3);
         for k in [-5.0, -2.5, 0.0, 1.0, 3.5, 6.0] {
@@ -277,9 +247,9 @@ mod tests {
 
     #[test]
     fn agrees_with_the_engines_whole_set_check() {
-        // Engine::check judges every reading against all others; for the
+        // Estimator::check judges every reading against all others; for the
         // last reading that is exactly this check's conditional.
-        let e = engine();
+        let e = estimator();
         let mut inputs = Inputs::new();
         let all = [
             ("stature", 1.76),
@@ -311,7 +281,7 @@ mod tests {
 
     #[test]
     fn first_reading_uses_the_marginal() {
-        let e = engine();
+        let e = estimator();
         let c = check_reading(e, &[], ("stature", 1.75)).unwrap();
         assert_eq!(c.conditioned_on, 0);
         assert_eq!(c.reference, Reference::RealPeople);
@@ -331,7 +301,7 @@ mod tests {
 
     #[test]
     fn a_chest_far_below_the_others_is_flagged_with_a_message() {
-        let e = engine();
+        let e = estimator();
         let c = check_reading(e, &taken(), ("chest", 0.58)).unwrap();
         assert_eq!(c.flag, Flag::Flag);
         assert!(c.z < -FLAG_Z, "z {}", c.z);
@@ -349,7 +319,7 @@ mod tests {
 
     #[test]
     fn an_inch_reading_taken_as_cm_is_a_unit_slip() {
-        let e = engine();
+        let e = estimator();
         // 32 in = 81.3 cm, a typical waist for this hip and stature.
         let c = check_reading(e, &taken()[..2], ("waist", 0.32)).unwrap();
         let slip = c.unit_slip.expect("inch slip detected");
@@ -370,7 +340,7 @@ mod tests {
 
     #[test]
     fn a_stated_tolerance_replaces_the_iso_class_as_reading_noise() {
-        let e = engine();
+        let e = estimator();
         // First reading (the marginal): sd^2 = population variance + noise^2,
         // so the two SDs differ by exactly the two noise variances.
         let iso = e.set().definitions[e.set().index_of("stature").unwrap()]
@@ -403,7 +373,7 @@ mod tests {
 
     #[test]
     fn bad_values_and_names_are_errors() {
-        let e = engine();
+        let e = estimator();
         assert!(matches!(
             check_reading(e, &[], ("stature", 0.0)),
             Err(PredictError::BadValue(_))
@@ -417,6 +387,6 @@ mod tests {
             Err(PredictError::BadValue(_))
         ));
         let err = check_reading(e, &[], ("statue", 1.7)).unwrap_err();
-        assert!(err.to_string().contains("did you mean stature"), "{err}");
+        assert!(err.to_string().contains("did you mean `stature`"), "{err}");
     }
 }

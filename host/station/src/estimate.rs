@@ -3,9 +3,9 @@
 //! Why a thread and a channel: an estimate takes a fraction of a second to a
 //! few seconds (more on a loaded kiosk), and the terminal interface must keep
 //! drawing, reading keys and talking to the tape meanwhile. [`start_estimate`]
-//! runs [`Engine::predict_observed`] on its own thread; the interface polls
+//! runs [`Estimator::predict_observed`] on its own thread; the interface polls
 //! [`EstimateJob::progress`] for stage and fraction and may
-//! [`EstimateJob::cancel`] at any time (the engine stops within one objective
+//! [`EstimateJob::cancel`] at any time (the estimator stops within one objective
 //! evaluation, a few milliseconds). The channel is `std::sync::mpsc`, so a
 //! caller needs no async runtime.
 //!
@@ -20,7 +20,7 @@
 //! restart is exported again after it without estimating again
 //! ([`export_report`]).
 //!
-//! Layer: a service (with `crate::check`), over the engine; it knows nothing
+//! Layer: a service (with `crate::check`), over the estimator; it knows nothing
 //! of sessions, screens or the store.
 
 use std::path::{Path, PathBuf};
@@ -31,16 +31,15 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
-use tapeshape_engine::predict::{
-    Control, Engine, Estimate, Input, Inputs, Length, PredictError, PredictOptions,
+use tapeshape_common::fs::write_atomic;
+use tapeshape_estimator::{
+    Control, Estimate, Estimator, Input, Inputs, Length, PredictError, PredictOptions,
     PredictProgress, PredictStage, Unit,
 };
-use tapeshape_mesh::io::{
-    write_atomic, write_glb, write_obj, write_ply, MeshIoError, PlyPrecision,
-};
+use tapeshape_mesh::io::{write_glb, write_obj, write_ply, MeshIoError, PlyPrecision};
 use tapeshape_mesh::Mesh;
 
-/// A tape reading as the engine takes it: `metres` as the tape shows it
+/// A tape reading as the estimator takes it: `metres` as the tape shows it
 /// (centimetres, so that a unit slip is explained in the tape's unit), with
 /// its standard uncertainty in metres (`None`: the measurement's ISO class).
 pub fn tape_input(name: impl Into<String>, metres: f64, tolerance: Option<f64>) -> Input {
@@ -71,7 +70,7 @@ pub enum EstimateError {
     /// The operator cancelled it.
     #[error("estimate cancelled ({0})")]
     Cancelled(String),
-    /// The engine refused the readings or failed; the message says why and
+    /// The estimator refused the readings or failed; the message says why and
     /// what to do.
     #[error(transparent)]
     Predict(PredictError),
@@ -118,22 +117,22 @@ pub struct EstimateJob {
 const MIN_STEP: f64 = 0.005;
 
 /// Starts estimating a body from `inputs` on a new thread with
-/// `options` (the pipeline and the paper's l, lambda, s). `engine` is any shared handle to an engine
-/// (`Engine::default_model()` gives a `&'static Engine`; an `Arc<Engine>`
+/// `options` (the pipeline and the paper's l, lambda, s). `estimator` is any shared handle to an estimator
+/// (`Estimator::default_model()` gives a `&'static Estimator`; an `Arc<Estimator>`
 /// works too).
 ///
 /// The readings are checked before the thread starts (so a typo fails at
 /// once): a value or tolerance that is not a positive finite length is an
-/// error ([`Inputs`] already refuses a name given twice); the engine's own
+/// error ([`Inputs`] already refuses a name given twice); the estimator's own
 /// checks (unknown names, unit slips, contradictions) run on the thread and
 /// end the job with [`EstimateError::Predict`].
 pub fn start_estimate<E>(
-    engine: E,
+    estimator: E,
     inputs: &Inputs,
     options: &PredictOptions,
 ) -> Result<EstimateJob, EstimateError>
 where
-    E: std::ops::Deref<Target = Engine> + Send + 'static,
+    E: std::ops::Deref<Target = Estimator> + Send + 'static,
 {
     check_inputs(inputs)?;
     let inputs = inputs.clone();
@@ -166,7 +165,7 @@ where
                 }
                 Control::Continue
             };
-            Ok(engine.predict_observed(&inputs, &options, &observer)?)
+            Ok(estimator.predict_observed(&inputs, &options, &observer)?)
         })
         .map_err(|e| EstimateError::Panicked(format!("could not start a thread: {e}")))?;
     Ok(EstimateJob {
@@ -349,7 +348,7 @@ pub enum ExportError {
         #[source]
         source: std::io::Error,
     },
-    /// Writing a mesh or the report failed.
+    /// Writing a mesh failed.
     #[error("writing {}: {source}", .path.display())]
     Write {
         /// The file.
@@ -357,6 +356,15 @@ pub enum ExportError {
         /// What went wrong.
         #[source]
         source: MeshIoError,
+    },
+    /// Writing the report failed.
+    #[error("writing {}: {source}", .path.display())]
+    WriteReport {
+        /// The report file.
+        path: PathBuf,
+        /// What went wrong.
+        #[source]
+        source: std::io::Error,
     },
     /// The report could not be encoded as JSON.
     #[error("encoding the report {}: {source}", .path.display())]
@@ -424,7 +432,7 @@ pub struct ReportTimings {
 
 /// The JSON report [`export`] writes, and the station stores with the
 /// estimate (then with no files and `exported_at_ms` 0). The parts the
-/// engine owns (`model`, `engine`) are kept as JSON values, so that a report
+/// estimator owns (`model`, `estimator`) are kept as JSON values, so that a report
 /// stored by one version of the program reads back in another.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ExportReport {
@@ -446,7 +454,7 @@ pub struct ExportReport {
     pub plausibility: ReportPlausibility,
     /// Everything the operator or an engineer should know.
     pub warnings: Vec<String>,
-    /// The model used (the engine's `ModelSummary`).
+    /// The model used (the estimator's `ModelSummary`).
     pub model: serde_json::Value,
     /// Stage timings.
     pub timings: ReportTimings,
@@ -454,13 +462,13 @@ pub struct ExportReport {
     pub mesh: (usize, usize),
     /// The files written with this report (names, same folder).
     pub files: Vec<String>,
-    /// The engine's full report (stage values, L-BFGS runs, settings: its
+    /// The estimator's full report (stage values, L-BFGS runs, settings: its
     /// `EstimateReport`).
-    pub engine: serde_json::Value,
+    pub estimator: serde_json::Value,
 }
 
-/// A plausibility label of the engine's report by its serialised name
-/// (`Typical`, `Unusual`, `Implausible`: the engine's stable word for it),
+/// A plausibility label of the estimator's report by its serialised name
+/// (`Typical`, `Unusual`, `Implausible`: the estimator's stable word for it),
 /// as the report and the interface write it.
 fn label_word(label: &impl Serialize) -> String {
     match serde_json::to_value(label) {
@@ -469,7 +477,7 @@ fn label_word(label: &impl Serialize) -> String {
     }
 }
 
-/// Plain data as a JSON value. Serialising the engine's report types cannot
+/// Plain data as a JSON value. Serialising the estimator's report types cannot
 /// fail (no maps with non-string keys, no failing `Serialize`); if it ever
 /// did, the report would hold `null` for that part, never lose the station's.
 fn json_value(v: &impl Serialize) -> serde_json::Value {
@@ -537,7 +545,7 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
             estimate.mesh.faces().len(),
         ),
         files,
-        engine: json_value(r),
+        estimator: json_value(r),
     }
 }
 
@@ -619,7 +627,7 @@ pub fn export_report(
         path: report_path.clone(),
         source,
     })?;
-    write_atomic(&report_path, &json).map_err(|source| ExportError::Write {
+    write_atomic(&report_path, &json).map_err(|source| ExportError::WriteReport {
         path: report_path.clone(),
         source,
     })?;
@@ -628,196 +636,4 @@ pub fn export_report(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use tapeshape_mesh::io::ReadOptions;
-
-    fn engine() -> &'static Engine {
-        Engine::default_model().expect("embedded model")
-    }
-
-    const READINGS: [(&str, f64); 4] = [
-        ("stature", 1.76),
-        ("chest", 0.98),
-        ("waist", 0.84),
-        ("hip", 1.00),
-    ];
-
-    fn readings() -> Inputs {
-        let mut inputs = Inputs::new();
-        for (name, m) in READINGS {
-            inputs.push(tape_input(name, m, None)).unwrap();
-        }
-        inputs
-    }
-
-    #[test]
-    fn a_job_reports_monotone_progress_and_returns_the_engines_body() {
-        let e = engine();
-        let settings = PredictOptions::default();
-        let job = start_estimate(e, &readings(), &settings).unwrap();
-        let mut seen = Vec::new();
-        while !job.is_finished() {
-            seen.extend(job.next_progress(Duration::from_millis(50)));
-        }
-        seen.extend(job.progress());
-        let est = job.wait().unwrap();
-        assert!(!seen.is_empty());
-        for w in seen.windows(2) {
-            assert!(w[1].fraction >= w[0].fraction, "{seen:?}");
-        }
-        assert_eq!(seen.last().unwrap().stage, PredictStage::Done);
-        assert_eq!(seen.last().unwrap().fraction, 1.0);
-        assert!(seen.iter().any(|p| p.stage == PredictStage::Step2));
-        // The same body as a direct prediction (the job adds nothing).
-        let direct = e.predict(&readings(), &settings).unwrap();
-        assert_eq!(direct.mesh.vertices, est.mesh.vertices);
-    }
-
-    #[test]
-    fn cancelling_ends_the_job_with_cancelled() {
-        let e = engine();
-        // Cancel before it starts: the engine stops at its first report.
-        let job = start_estimate(e, &readings(), &PredictOptions::default()).unwrap();
-        job.cancel();
-        assert!(matches!(job.wait(), Err(EstimateError::Cancelled(_))));
-        // Cancel from another handle once step 2 is under way.
-        let job = start_estimate(e, &readings(), &PredictOptions::default()).unwrap();
-        let handle = job.cancel_handle();
-        let mut cancelled_at = None;
-        while let Some(p) = job.next_progress(Duration::from_secs(30)) {
-            if p.stage == PredictStage::Step2 {
-                handle.cancel();
-                cancelled_at = Some(p);
-                break;
-            }
-        }
-        assert!(cancelled_at.is_some(), "never reached step 2");
-        match job.wait() {
-            Err(EstimateError::Cancelled(stage)) => assert!(stage.starts_with("step 2"), "{stage}"),
-            other => panic!("expected Cancelled, got {other:?}"),
-        }
-    }
-
-    #[test]
-    fn bad_readings_fail_before_or_inside_the_job_with_a_clear_error() {
-        let e = engine();
-        let s = PredictOptions::default();
-        let mut twice = readings();
-        let err = twice.push(tape_input("chest", 0.99, None)).unwrap_err();
-        assert!(err.to_string().contains("given twice"), "{err}");
-        let mut neg = readings();
-        neg.readings[1].value.metres = -0.98;
-        assert!(matches!(
-            start_estimate(e, &neg, &s),
-            Err(EstimateError::Predict(PredictError::BadValue(_)))
-        ));
-        let mut tol = readings();
-        tol.readings[1].tolerance = Some(f64::NAN);
-        assert!(matches!(
-            start_estimate(e, &tol, &s),
-            Err(EstimateError::Predict(PredictError::BadValue(_)))
-        ));
-        let mut typo = readings();
-        typo.readings[1].name = "chets".into();
-        let err = start_estimate(e, &typo, &s).unwrap().wait().unwrap_err();
-        assert!(err.to_string().contains("did you mean chest"), "{err}");
-    }
-
-    #[test]
-    fn export_writes_every_format_and_a_report_that_reads_back() {
-        let e = engine();
-        let est = e.predict(&readings(), &PredictOptions::default()).unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let folder = dir.path().join("out/nested");
-        let session = SessionInfo {
-            customer_id: "C-42/../x y".into(),
-            session_id: 7,
-            set: "quick".into(),
-            exported_at_ms: 1_700_000_000_000,
-        };
-        let files = export(&est, &session, &folder, &MeshFormat::ALL).unwrap();
-        let names: Vec<String> = files
-            .iter()
-            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
-            .collect();
-        assert_eq!(
-            names,
-            [
-                "C-42____x_y-session7.obj",
-                "C-42____x_y-session7.ply",
-                "C-42____x_y-session7.glb",
-                "C-42____x_y-session7-report.json"
-            ]
-        );
-        // Nothing else (no temporary files) is left in the folder.
-        assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 4);
-        let obj = tapeshape_mesh::io::read_obj(&files[0], ReadOptions::default()).unwrap();
-        let ply = tapeshape_mesh::io::read_ply(&files[1], ReadOptions::default()).unwrap();
-        assert_eq!(ply.vertices, est.mesh.vertices, "PLY f64 is exact");
-        assert_eq!(obj.faces(), est.mesh.faces());
-        for (a, b) in obj.vertices.iter().zip(&est.mesh.vertices) {
-            for k in 0..3 {
-                assert!((a[k] - b[k]).abs() < 1e-6);
-            }
-        }
-        let glb = std::fs::read(&files[2]).unwrap();
-        assert_eq!(&glb[..4], b"glTF");
-        assert_eq!(
-            u32::from_le_bytes(glb[8..12].try_into().unwrap()) as usize,
-            glb.len()
-        );
-        let json: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(&files[3]).unwrap()).unwrap();
-        assert_eq!(json["session"]["customer_id"], "C-42/../x y");
-        assert_eq!(json["session"]["session_id"], 7);
-        assert_eq!(json["session"]["set"], "quick");
-        let ms = json["measurements"].as_array().unwrap();
-        assert_eq!(ms.len(), 4);
-        for m in ms {
-            let name = m["name"].as_str().unwrap();
-            let given = READINGS.iter().find(|r| r.0 == name).unwrap();
-            let target = m["target_mm"].as_f64().unwrap();
-            assert!((target - given.1 * 1000.0).abs() < 1e-9);
-            let achieved = m["achieved_mm"].as_f64().unwrap();
-            let err = m["error_mm"].as_f64().unwrap();
-            assert!((achieved - target - err).abs() < 1e-9);
-            // The paper's method fits what was given to well under a millimetre.
-            assert!(err.abs() < 1.0, "{name}: error {err} mm");
-        }
-        assert!(json["units"].as_str().unwrap().contains("millimetres"));
-        assert!(json["frames"].as_str().unwrap().contains("Z up"));
-        assert!(json["plausibility"]["readings"].is_string());
-        assert!(json["timings"]["total_ms"].as_f64().unwrap() > 0.0);
-        assert_eq!(json["files"].as_array().unwrap().len(), 3);
-        // Exporting again replaces the files (same names, still 4); a format
-        // asked twice is written once.
-        let again = export(
-            &est,
-            &session,
-            &folder,
-            &[MeshFormat::Glb, MeshFormat::Obj, MeshFormat::Glb],
-        )
-        .unwrap();
-        assert_eq!(again.len(), 3);
-        assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 4);
-    }
-
-    #[test]
-    fn an_unwritable_folder_is_a_clear_error() {
-        let e = engine();
-        let est = e.predict(&readings(), &PredictOptions::default()).unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let file = dir.path().join("a-file");
-        std::fs::write(&file, b"x").unwrap();
-        let session = SessionInfo {
-            customer_id: String::new(),
-            session_id: 1,
-            set: "quick".into(),
-            exported_at_ms: 0,
-        };
-        let err = export(&est, &session, &file.join("sub"), &[MeshFormat::Obj]).unwrap_err();
-        assert!(matches!(err, ExportError::Folder { .. }), "{err}");
-        assert!(err.to_string().contains("choose another folder"));
-    }
-}
+mod tests;

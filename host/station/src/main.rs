@@ -29,7 +29,12 @@ enum Command {
     /// Show, close or delete one session.
     Session(cli::session::Args),
     /// Record a session from a simulated tape through the real firmware logic and link.
+    #[cfg(feature = "demo")]
     Demo(cli::demo::Args),
+    /// The demo is not in this build (the kiosk build): says where it is.
+    #[cfg(not(feature = "demo"))]
+    #[command(hide = true)]
+    Demo(cli::moved::Args),
     /// Take a measurement set (paper34, ansur, quick, face7 or a file) on a body mesh; --help lists the sets.
     Measure(cli::measure::Args),
     /// Make, import and inspect databases of registered bodies (training data).
@@ -38,8 +43,9 @@ enum Command {
     Train(cli::train::Args),
     /// Estimate a body mesh from tape measurements (any subset of the model's); --help for units and files.
     Predict(cli::predict::Args),
-    /// Run one of the paper's experiments (and its baselines) and write its tables and figures.
-    Eval(cli::eval::Args),
+    /// The paper's experiments moved to `tapeshape-eval`: says how to run them.
+    #[command(hide = true)]
+    Eval(cli::moved::Args),
     /// A customer's data at this station: export it, erase it (here and in the chain), look them up.
     Customer(cli::customer::Args),
     /// Send this station's unsent changes to the chain's hub and carry out the erasures it sends, then exit.
@@ -67,12 +73,15 @@ fn main() -> ExitCode {
         Command::Station(a) => cli::station::run(a, &args.global),
         Command::Sessions(a) => cli::sessions::run(a, &args.global),
         Command::Session(a) => cli::session::run(a, &args.global),
+        #[cfg(feature = "demo")]
         Command::Demo(a) => cli::demo::run(a, &args.global),
+        #[cfg(not(feature = "demo"))]
+        Command::Demo(a) => cli::moved::demo(a),
         Command::Measure(a) => cli::measure::run(a, &args.global),
         Command::Dataset(a) => cli::dataset::run(a, &args.global),
         Command::Train(a) => cli::train::run(a, &args.global),
         Command::Predict(a) => cli::predict::run(a, &args.global),
-        Command::Eval(a) => cli::eval::run(a, &args.global),
+        Command::Eval(a) => cli::moved::eval(a),
         Command::Customer(a) => cli::customer::run(a, &args.global),
         Command::Sync(a) => cli::sync::run(a, &args.global),
         #[cfg(feature = "hub")]

@@ -4,7 +4,7 @@
 use tapeshape::services::station::{reading_tolerance_m, StationServices};
 use tapeshape::services::{CheckRequest, Services as _};
 use tapeshape::session::Sessions;
-use tapeshape_engine::predict::Unit;
+use tapeshape_estimator::Unit;
 
 fn chest_after_stature(chest_mm: f64) -> CheckRequest {
     CheckRequest {

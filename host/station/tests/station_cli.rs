@@ -163,6 +163,7 @@ async fn unknown_set_is_refused_before_a_session_is_created() {
     assert!(store.list_sessions().unwrap().is_empty());
 }
 
+#[cfg(feature = "demo")]
 #[tokio::test]
 async fn demo_stores_exactly_what_the_simulated_tape_confirmed() {
     let tmp = tempfile::tempdir().unwrap();
@@ -186,7 +187,7 @@ async fn demo_stores_exactly_what_the_simulated_tape_confirmed() {
         .and_then(|w| w.parse().ok())
         .unwrap_or_else(|| panic!("no subject id in the demo's output:\n{stdout}"));
     assert_eq!(id % 4, 0, "the demo customer must come from the test split");
-    let subject = tapeshape_engine::ansur::Ansur::get()
+    let subject = tapeshape_population::ansur::Ansur::get()
         .unwrap()
         .subject(id)
         .unwrap();

@@ -13,7 +13,7 @@ use tapeshape::store::{ReadingSource, SessionId, TapeOrigin};
 use tapeshape::tui::app::{App, Effect, Event, Screen, SessionView};
 use tapeshape::tui::operator::{Autopilot, SimOperator};
 use tapeshape::tui::update;
-use tapeshape_engine::ansur::Sex;
+use tapeshape_population::ansur::Sex;
 use tui_fixture::*;
 
 /// Plays the runner: performs `fx` with fixtures, returning the answers.

@@ -1,16 +1,15 @@
 //! The operator flow through `update` alone: no terminal, no tape, no
-//! engine. Each test states what an operator would see go wrong if the
+//! estimator. Each test states what an operator would see go wrong if the
 //! transition were wrong.
 
 mod tui_fixture;
 
-use crossterm::event::{KeyCode, KeyEvent};
+use crossterm::event::KeyCode;
 use tapeshape::services::{EstimateEvent, Stage};
 use tapeshape::store::{Consent, Mark, ReadingId, SessionId, SessionStatus};
-use tapeshape::tui::app::{Effect, Event, ItemState, Pilot, Screen};
-use tapeshape::tui::operator::{Autopilot, SimOperator};
+use tapeshape::tui::app::{Effect, Event, ItemState, Screen};
 use tapeshape::tui::ShowLength as _;
-use tapeshape_engine::predict::Unit;
+use tapeshape_estimator::Unit;
 use tui_fixture::*;
 
 #[test]
@@ -359,39 +358,48 @@ fn a_resumed_session_continues_with_the_first_missing_measurement() {
     assert_eq!(current(&a).as_deref(), Some("chest"));
 }
 
-#[test]
-fn the_first_human_key_takes_over_from_the_simulated_operator() {
-    let mut a = app(true);
-    assert_eq!(a.demo, Some(Pilot::Simulated));
-    let mut pilot = Autopilot::new(SimOperator::new(None, std::time::Duration::ZERO));
-    assert!(pilot.driving());
-    connect(&mut a);
-    open_session(&mut a, &[]);
-    // The simulated operator's keys act while it drives: on the measuring
-    // screen it asks the simulated tape for the current measurement.
-    let keys = pilot.tick(&a, std::time::Instant::now());
-    let fx = send(&mut a, keys);
-    assert!(fx.contains(&Effect::SimTape {
-        name: "stature".into(),
-        slip: false
-    }));
-    // A person presses s: it only takes over (no skip).
-    let person = |pilot: &mut Autopilot, c| pilot.person_key(KeyEvent::from(KeyCode::Char(c)));
-    let ev = person(&mut pilot, 's');
-    send(&mut a, [ev]);
-    assert_eq!(a.demo, Some(Pilot::Person));
-    assert!(!pilot.driving());
-    assert_eq!(a.session.as_ref().unwrap().items[0].state, ItemState::Todo);
-    // From now on the simulated operator's keys are not given ...
-    let later = std::time::Instant::now() + std::time::Duration::from_secs(60);
-    assert!(pilot.tick(&a, later).is_empty());
-    // ... and the person's keys act.
-    let ev = person(&mut pilot, 's');
-    send(&mut a, [ev]);
-    assert_eq!(
-        a.session.as_ref().unwrap().items[0].state,
-        ItemState::Skipped
-    );
+/// The demo's simulated operator (the `demo` feature).
+#[cfg(feature = "demo")]
+mod simulated_operator {
+    use super::*;
+    use crossterm::event::KeyEvent;
+    use tapeshape::tui::app::Pilot;
+    use tapeshape::tui::operator::{Autopilot, SimOperator};
+
+    #[test]
+    fn the_first_human_key_takes_over_from_the_simulated_operator() {
+        let mut a = app(true);
+        assert_eq!(a.demo, Some(Pilot::Simulated));
+        let mut pilot = Autopilot::new(SimOperator::new(None, std::time::Duration::ZERO));
+        assert!(pilot.driving());
+        connect(&mut a);
+        open_session(&mut a, &[]);
+        // The simulated operator's keys act while it drives: on the measuring
+        // screen it asks the simulated tape for the current measurement.
+        let keys = pilot.tick(&a, std::time::Instant::now());
+        let fx = send(&mut a, keys);
+        assert!(fx.contains(&Effect::SimTape {
+            name: "stature".into(),
+            slip: false
+        }));
+        // A person presses s: it only takes over (no skip).
+        let person = |pilot: &mut Autopilot, c| pilot.person_key(KeyEvent::from(KeyCode::Char(c)));
+        let ev = person(&mut pilot, 's');
+        send(&mut a, [ev]);
+        assert_eq!(a.demo, Some(Pilot::Person));
+        assert!(!pilot.driving());
+        assert_eq!(a.session.as_ref().unwrap().items[0].state, ItemState::Todo);
+        // From now on the simulated operator's keys are not given ...
+        let later = std::time::Instant::now() + std::time::Duration::from_secs(60);
+        assert!(pilot.tick(&a, later).is_empty());
+        // ... and the person's keys act.
+        let ev = person(&mut pilot, 's');
+        send(&mut a, [ev]);
+        assert_eq!(
+            a.session.as_ref().unwrap().items[0].state,
+            ItemState::Skipped
+        );
+    }
 }
 
 #[test]

@@ -13,9 +13,9 @@ use std::sync::OnceLock;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use tapeshape_engine::dataset::{generate_population, Dataset, PopulationSettings};
-use tapeshape_engine::predict::Engine;
+use tapeshape_estimator::Estimator;
 use tapeshape_mesh::Vec3;
+use tapeshape_population::{generate_population, Dataset, PopulationSettings};
 
 /// Novice-operator noise per reading, metres: the paper's real-measurement
 /// experiment cites repeatability of about 1 cm for trained measurers
@@ -26,8 +26,8 @@ pub const NOVICE_SD_M: f64 = 0.01;
 pub const NOISE_SEED: u64 = 5;
 
 /// The embedded default model.
-pub fn engine() -> &'static Engine {
-    Engine::default_model().expect("embedded default model")
+pub fn estimator() -> &'static Estimator {
+    Estimator::default_model().expect("embedded default model")
 }
 
 /// At least `n` held-out generated bodies (seed 2, as in
@@ -53,7 +53,7 @@ pub fn held_out(n: usize) -> &'static Dataset {
 /// A set's values on `body` (name, metres), in set order, measured with the
 /// default model's compiled operators.
 pub fn set_values(body: &[Vec3], set: &str) -> Vec<(String, f64)> {
-    let e = engine();
+    let e = estimator();
     e.set_members(set)
         .expect("the default model carries the set")
         .into_iter()
@@ -68,7 +68,7 @@ pub fn set_values(body: &[Vec3], set: &str) -> Vec<(String, f64)> {
 /// The ISO 20685-1 maximum allowable error of a measurement of the default
 /// model's set, millimetres.
 pub fn iso_tolerance_mm(name: &str) -> f64 {
-    let e = engine();
+    let e = estimator();
     let j = e.set().index_of(name).expect("a measurement of the model");
     e.set().definitions[j].tolerance.mm()
 }
@@ -96,16 +96,14 @@ pub fn mean_distance_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
     let sum: f64 = a
         .iter()
         .zip(b)
-        .map(|(p, q)| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-        })
+        .map(|(p, q)| tapeshape_mesh::vec3::distance(*p, *q))
         .sum();
     1000.0 * sum / a.len() as f64
 }
 
 /// The model's PCA mean: the answer with no readings.
 pub fn mean_shape() -> Vec<Vec3> {
-    engine()
+    estimator()
         .file()
         .model
         .pca

@@ -14,9 +14,9 @@
 //! predict).
 
 use nalgebra::{DMatrix, DVector};
-use tapeshape_engine::ansur::{Ansur, Sex, Split, Subject};
-use tapeshape_engine::body::render::View;
-use tapeshape_engine::measure::MeasurementSet;
+use tapeshape_body::render::View;
+use tapeshape_measure::MeasurementSet;
+use tapeshape_population::ansur::{Ansur, Sex, Split, Subject};
 
 use super::common::{
     informative, mean, run_all, summarise, training_data, Case, Dimensions, Reference,
@@ -131,7 +131,7 @@ pub fn ansur(opts: &Options, roster: &Roster) -> Result<Outcome, EvalError> {
     let (n_train, per_sex) = sizes(opts.quick);
     let pop = population(n_train, 1, 0.5, "training bodies")?;
     let set = MeasurementSet::load("ansur")?;
-    let anatomy = tapeshape_engine::body::anatomy::anatomy();
+    let anatomy = tapeshape_body::anatomy::anatomy();
     let data = training_data(pop.bodies, &pop.topology, &set, &anatomy)?;
     let inf = informative(&data.measurements);
     let ansur = Ansur::get()?;
@@ -308,11 +308,11 @@ pub fn holdout(opts: &Options, roster: &Roster) -> Result<Outcome, EvalError> {
     let t0 = std::time::Instant::now();
     let (n_train, per_sex) = sizes(opts.quick);
     let pop = population(n_train, 1, 0.5, "training bodies")?;
-    let text = tapeshape_engine::predict::union_set_text(&["ansur", "quick"])
+    let text = tapeshape_estimator::union_set_text(&["ansur", "quick"])
         .map_err(|e| EvalError::Data(e.to_string()))?;
     let set = MeasurementSet::from_toml_str(&text, "ansur+quick")?;
     let quick = MeasurementSet::load("quick")?;
-    let anatomy = tapeshape_engine::body::anatomy::anatomy();
+    let anatomy = tapeshape_body::anatomy::anatomy();
     let data = training_data(pop.bodies, &pop.topology, &set, &anatomy)?;
     let inf = informative(&data.measurements);
     let q_idx: Vec<usize> = quick

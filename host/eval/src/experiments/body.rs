@@ -2,8 +2,8 @@
 //! (its Tables of average errors and of S_real per measurement) on
 //! generated bodies with the `paper34` set.
 
-use tapeshape_engine::body::render::View;
-use tapeshape_engine::measure::MeasurementSet;
+use tapeshape_body::render::View;
+use tapeshape_measure::MeasurementSet;
 
 use super::common::{
     informative, mean, run_all, summarise, training_data, Case, Dimensions, MeasurementGaussian,
@@ -84,7 +84,7 @@ pub const BODY_PARAMS: Params = Params {
 /// Training data, held-out bodies and what is measured.
 struct Setup {
     data: crate::TrainingData,
-    held: Vec<Vec<tapeshape_engine::mesh::Vec3>>,
+    held: Vec<Vec<tapeshape_mesh::Vec3>>,
     used: Vec<usize>,
     dims: Dimensions,
     set: MeasurementSet,
@@ -97,7 +97,7 @@ fn setup(s: &Sizes) -> Result<Setup, EvalError> {
     let train_set = population(s.n_train, 1, 0.5, "training bodies")?;
     let held = population(s.n_held, 2, 0.5, "held-out bodies")?;
     let set = MeasurementSet::load("paper34")?;
-    let anatomy = tapeshape_engine::body::anatomy::anatomy();
+    let anatomy = tapeshape_body::anatomy::anatomy();
     let data = training_data(train_set.bodies, &train_set.topology, &set, &anatomy)?;
     let used = informative(&data.measurements);
     let dims = Dimensions::of(&set, &used);
@@ -527,10 +527,7 @@ pub(crate) fn signed_figure(
     cols.push("true body".into());
     let g = grid(&cols, rows);
     let bar = colour_bar(limit, 300);
-    save(
-        &tapeshape_engine::body::render::vstack(&[g, bar]),
-        &out.join(file),
-    )?;
+    save(&tapeshape_body::render::vstack(&[g, bar]), &out.join(file))?;
     Ok(vec![(
         file.into(),
         format!("Held-out bodies predicted by every method, coloured by the signed distance to the true body (red: outside, blue: inside, ±{limit:.0} mm), front and side; last column the true body. As the paper's S_real figure."),

@@ -15,8 +15,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
-use tapeshape_engine::measure::{CompiledSet, MeasurementSet};
-use tapeshape_engine::mesh::{Anatomy, Topology, Vec3};
+use tapeshape_measure::{CompiledSet, MeasurementSet};
+use tapeshape_mesh::{Anatomy, Topology, Vec3};
 use tapeshape_model::pca::Pca;
 use tapeshape_model::predict::{chi2_quantile, triangle_changes, PlausibilityLabel};
 
@@ -378,9 +378,7 @@ pub fn vertex_distance_mm(a: &[Vec3], b: &[Vec3]) -> (f64, f64) {
     let d: Vec<f64> = a
         .iter()
         .zip(b)
-        .map(|(p, q)| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt() * 1000.0
-        })
+        .map(|(p, q)| tapeshape_mesh::vec3::distance(*p, *q) * 1000.0)
         .collect();
     (
         d.iter().sum::<f64>() / d.len().max(1) as f64,

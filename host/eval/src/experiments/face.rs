@@ -1,10 +1,10 @@
 //! `face`: the paper's face experiment: 50 training faces, the seven facial
 //! surface distances of `face7`, S_close, S_2 and S_4.
 
-use tapeshape_engine::body::render::View;
-use tapeshape_engine::body::BodyModel;
-use tapeshape_engine::dataset::{generate_faces, remap_anatomy, PopulationSettings};
-use tapeshape_engine::measure::MeasurementSet;
+use tapeshape_body::render::View;
+use tapeshape_body::BodyModel;
+use tapeshape_measure::MeasurementSet;
+use tapeshape_population::{generate_faces, remap_anatomy, PopulationSettings};
 
 use super::body::method_row_figure;
 use super::common::{
@@ -48,7 +48,7 @@ pub fn run(opts: &Options, roster: &Roster) -> Result<Outcome, EvalError> {
         .clone()
         .ok_or_else(|| EvalError::Data("the faces dataset has no vertex map".into()))?;
     let anatomy = remap_anatomy(
-        &tapeshape_engine::body::anatomy::anatomy(),
+        &tapeshape_body::anatomy::anatomy(),
         body.topology(),
         &map,
         faces.topology.faces(),

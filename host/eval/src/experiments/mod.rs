@@ -13,7 +13,7 @@
 //!
 //! Why generated data: the paper used CAESAR scans, which the project does
 //! not have; the training and held-out bodies come from
-//! [`tapeshape_engine::dataset::generate_population`] (bodies fitted to
+//! [`tapeshape_population::generate_population`] (bodies fitted to
 //! ANSUR II train-split people) with fixed seeds, so every run regenerates
 //! the same data (about 40 s for 400 bodies on two cores).
 //!
@@ -25,8 +25,8 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use tapeshape_engine::dataset::{generate_population, Dataset, PopulationSettings};
 use tapeshape_model::PredictSettings;
+use tapeshape_population::{generate_population, Dataset, PopulationSettings};
 
 use crate::methods::{
     FeatureAnalysis, GeneratorFit, GeneratorFitSettings, Ours, RbfInterpolation, RbfSettings,
@@ -58,16 +58,16 @@ pub enum EvalError {
     Report(#[from] ReportError),
     /// Drawing a figure failed.
     #[error(transparent)]
-    Render(#[from] tapeshape_engine::body::render::RenderError),
+    Render(#[from] tapeshape_body::render::RenderError),
     /// A dataset could not be generated.
     #[error(transparent)]
-    Dataset(#[from] tapeshape_engine::dataset::DatasetError),
+    Dataset(#[from] tapeshape_population::DatasetError),
     /// A measurement set could not be loaded or compiled.
     #[error(transparent)]
-    Measure(#[from] tapeshape_engine::measure::MeasureError),
+    Measure(#[from] tapeshape_measure::MeasureError),
     /// ANSUR II could not be read.
     #[error(transparent)]
-    Ansur(#[from] tapeshape_engine::ansur::AnsurError),
+    Ansur(#[from] tapeshape_population::ansur::AnsurError),
 }
 
 /// The experiments.
@@ -397,4 +397,4 @@ pub(crate) fn add_variant(
 }
 
 /// Shared handle of a topology, for figure code.
-pub(crate) type Topo = Arc<tapeshape_engine::mesh::Topology>;
+pub(crate) type Topo = Arc<tapeshape_mesh::Topology>;

@@ -9,9 +9,9 @@
 //! tallest, the shortest, the heaviest (BMI), the lightest (BMI) and the one
 //! with the largest waist-to-hip ratio among the others.
 
-use tapeshape_engine::ansur::Ansur;
-use tapeshape_engine::body::render::View;
-use tapeshape_engine::measure::MeasurementSet;
+use tapeshape_body::render::View;
+use tapeshape_measure::MeasurementSet;
+use tapeshape_population::ansur::Ansur;
 
 use super::body::signed_figure;
 use super::common::{informative, run_all, summarise, training_data, Case, Dimensions, Reference};
@@ -101,7 +101,7 @@ pub fn run(opts: &Options, roster: &Roster) -> Result<Outcome, EvalError> {
         }
     }
     let set = MeasurementSet::load("paper34")?;
-    let anatomy = tapeshape_engine::body::anatomy::anatomy();
+    let anatomy = tapeshape_body::anatomy::anatomy();
     let train_meshes: Vec<_> = typical.iter().map(|&i| pool.bodies[i].clone()).collect();
     let data = training_data(train_meshes, &pool.topology, &set, &anatomy)?;
     let used = informative(&data.measurements);

@@ -142,8 +142,7 @@ pub(crate) fn measurement_names(data: &TrainingData) -> Vec<String> {
 /// with the default fit settings (all components).
 pub(crate) fn fit_model(method: &str, data: &TrainingData) -> Result<ShapeModel, MethodError> {
     check_training(method, data, 2)?;
-    let meshes: Vec<&[tapeshape_engine::mesh::Vec3]> =
-        data.meshes.iter().map(|m| m.as_slice()).collect();
+    let meshes: Vec<&[tapeshape_mesh::Vec3]> = data.meshes.iter().map(|m| m.as_slice()).collect();
     ShapeModel::fit(
         &meshes,
         &data.measurements,

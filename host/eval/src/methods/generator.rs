@@ -6,7 +6,7 @@
 //! age, muscle, weight, height, proportions and cup size, and MakeHuman's
 //! `measure-*` local changes (the modifiers of its measure tab: bust, waist,
 //! hips, neck, arm and leg lengths and girths, ...), each bounded to its valid
-//! range ([`tapeshape_engine::body::Param::range`]). Race weights and breast
+//! range ([`tapeshape_body::Param::range`]). Race weights and breast
 //! firmness stay at the default (they are not measurements' business); the
 //! other 236 local changes stay at 0 (a parametric tool's user does not
 //! sculpt).
@@ -19,25 +19,22 @@
 //! constrains (with the default weight 1, moving a parameter across its whole
 //! range costs as much as a 1 mm misfit).
 //!
-//! Optimiser: projected Levenberg-Marquardt with exact derivatives, the
-//! generator's Jacobian ([`tapeshape_engine::body::BodyModel::generate_with_jacobian`])
-//! chained with each measurement's support gradient. Written by hand because
-//! no well-kept crate offers bounded nonlinear least squares with a
-//! user-supplied Jacobian (argmin's Gauss-Newton has neither bounds nor
-//! damping; its Nelder-Mead or L-BFGS with finite differences would need 27
-//! body generations per gradient where this needs one Jacobian). Bounds are
-//! an active set: a parameter at a bound whose step points outwards is held
-//! for that step. Two starts (the default phenotype as a man and as a
-//! woman); the lower cost wins.
+//! Optimiser: the one generator fitter the population generation also uses
+//! ([`tapeshape_population::fit::GeneratorFitter`]: damped Gauss-Newton with
+//! exact derivatives and bounds as an active set), here with the prior SD
+//! `span_k / sqrt(prior_weight)`, two starts (the default phenotype as a man
+//! and as a woman; the lower cost wins) and a start stopping when a step
+//! lowers the cost by less than 1e-6 of it or moves no parameter by more
+//! than 1e-7.
 //!
 //! Missing measurements: only the given ones enter the objective.
 
 use std::sync::Arc;
 
-use nalgebra::{DMatrix, DVector};
-use tapeshape_engine::body::{BodyModel, LocalChanges, Param, Phenotype};
-use tapeshape_engine::measure::CompiledSet;
-use tapeshape_engine::mesh::Vec3;
+use tapeshape_body::{BodyModel, LocalChanges, Param, Phenotype};
+use tapeshape_measure::CompiledSet;
+use tapeshape_mesh::Vec3;
+use tapeshape_population::fit::{FitError, FitOptions, Free, GeneratorFitter, Stop};
 
 use super::common::{given_targets, measurement_names, predict_err, train_err};
 use crate::{Method, MethodError, MethodOutput, TrainingData};
@@ -45,7 +42,7 @@ use crate::{Method, MethodError, MethodOutput, TrainingData};
 /// Settings of [`GeneratorFit`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct GeneratorFitSettings {
-    /// Levenberg-Marquardt iterations at most per start.
+    /// Gauss-Newton iterations at most per start.
     pub max_iterations: usize,
     /// Weight of the prior towards the start, squared mm per squared range (>= 0).
     pub prior_weight: f64,
@@ -86,8 +83,8 @@ pub struct GeneratorFit {
     body: &'static BodyModel,
     compiled: Arc<CompiledSet>,
     names: Vec<String>,
-    params: Vec<Param>,
-    settings: GeneratorFitSettings,
+    free: Vec<Free>,
+    options: FitOptions,
 }
 
 impl GeneratorFit {
@@ -135,217 +132,43 @@ impl GeneratorFit {
                 }
             }
         }
-        Ok(Self {
+        let sw = settings.prior_weight.sqrt();
+        let free = params
+            .into_iter()
+            .map(|param| {
+                let (lo, hi) = param.range();
+                Free {
+                    param,
+                    prior_sd: (hi - lo) / sw,
+                }
+            })
+            .collect();
+        let gf = Self {
             body,
             compiled: data.compiled.clone(),
             names: measurement_names(data),
-            params,
-            settings,
-        })
+            free,
+            options: FitOptions {
+                max_iterations: settings.max_iterations,
+                stop: Stop {
+                    misfit_m: 0.0,
+                    min_relative_gain: 1e-6,
+                    min_step: 1e-7,
+                },
+            },
+        };
+        gf.fitter()
+            .map_err(|e| train_err(Self::NAME, e.to_string()))?;
+        Ok(gf)
+    }
+
+    fn fitter(&self) -> Result<GeneratorFitter<'_>, FitError> {
+        GeneratorFitter::new(self.body, &self.compiled, &self.free, self.options.clone())
     }
 
     /// The fitted parameters, in the order of the parameter vector.
-    pub fn parameters(&self) -> &[Param] {
-        &self.params
-    }
-
-    fn bounds(p: Param) -> (f64, f64) {
-        p.range()
-    }
-
-    fn apply(&self, theta: &[f64]) -> Result<(Phenotype, LocalChanges), MethodError> {
-        let mut ph = Phenotype::default();
-        let mut lc = LocalChanges::new();
-        for (&p, &t) in self.params.iter().zip(theta) {
-            p.set(&mut ph, &mut lc, t)
-                .map_err(|e| predict_err(Self::NAME, e.to_string()))?;
-        }
-        Ok((ph, lc))
-    }
-
-    /// Misfits (mm) of the given measurements on `vertices`, and optionally
-    /// their gradients as sparse (vertex, d value / d position) lists.
-    #[allow(clippy::type_complexity)]
-    fn residuals(
-        &self,
-        vertices: &[Vec3],
-        given: &[(usize, f64)],
-        with_gradient: bool,
-    ) -> Result<(Vec<f64>, Vec<Vec<(usize, Vec3)>>), MethodError> {
-        let mut r = Vec::with_capacity(given.len());
-        let mut grads = Vec::new();
-        for &(j, t) in given {
-            let m = self.compiled.measure_one(j, vertices).map_err(|e| {
-                predict_err(Self::NAME, format!("measuring '{}': {e}", self.names[j]))
-            })?;
-            r.push((m.value - t) * 1000.0);
-            if with_gradient {
-                let g = m.support.gradient(vertices);
-                grads.push(
-                    g.into_iter()
-                        .enumerate()
-                        .filter(|(_, d)| d.iter().any(|x| *x != 0.0))
-                        .collect(),
-                );
-            }
-        }
-        Ok((r, grads))
-    }
-
-    fn prior(&self, theta: &[f64], theta0: &[f64]) -> f64 {
-        self.params
-            .iter()
-            .zip(theta.iter().zip(theta0))
-            .map(|(&p, (a, b))| {
-                let (lo, hi) = Self::bounds(p);
-                ((a - b) / (hi - lo)).powi(2)
-            })
-            .sum::<f64>()
-            * self.settings.prior_weight
-    }
-
-    /// One projected Levenberg-Marquardt run from `start`.
-    fn run(
-        &self,
-        given: &[(usize, f64)],
-        start: Phenotype,
-    ) -> Result<GeneratorSolution, MethodError> {
-        let np = self.params.len();
-        let nm = given.len();
-        let lc0 = LocalChanges::new();
-        let theta0: Vec<f64> = self.params.iter().map(|p| p.get(&start, &lc0)).collect();
-        let mut theta = theta0.clone();
-        let gen_err = |e: tapeshape_engine::body::BodyError| predict_err(Self::NAME, e.to_string());
-        let (ph, lc) = self.apply(&theta)?;
-        let mut vertices = self.body.generate(&ph, &lc).map_err(gen_err)?.vertices;
-        let (r, _) = self.residuals(&vertices, given, false)?;
-        let mut cost = r.iter().map(|x| x * x).sum::<f64>() + self.prior(&theta, &theta0);
-        let mut mu = 1e-3;
-        let mut iterations = 0;
-        let sw = self.settings.prior_weight.sqrt();
-        for _ in 0..self.settings.max_iterations {
-            iterations += 1;
-            let (ph, lc) = self.apply(&theta)?;
-            let (mesh, jac) = self
-                .body
-                .generate_with_jacobian(&ph, &lc, &self.params)
-                .map_err(gen_err)?;
-            let (r, grads) = self.residuals(&mesh.vertices, given, true)?;
-            let mut jm = DMatrix::<f64>::zeros(nm + np, np);
-            let mut rv = DVector::<f64>::zeros(nm + np);
-            for i in 0..nm {
-                rv[i] = r[i];
-                for (k, dk) in jac.iter().enumerate() {
-                    let s: f64 = grads[i]
-                        .iter()
-                        .map(|(v, g)| g[0] * dk[*v][0] + g[1] * dk[*v][1] + g[2] * dk[*v][2])
-                        .sum();
-                    jm[(i, k)] = s * 1000.0;
-                }
-            }
-            for (k, &p) in self.params.iter().enumerate() {
-                let (lo, hi) = Self::bounds(p);
-                rv[nm + k] = sw * (theta[k] - theta0[k]) / (hi - lo);
-                jm[(nm + k, k)] = sw / (hi - lo);
-            }
-            let jtj = jm.transpose() * &jm;
-            let g = jm.transpose() * &rv;
-            let mut accepted = None;
-            for _ in 0..10 {
-                let step = self.bounded_step(&jtj, &g, &theta, mu);
-                let trial: Vec<f64> = self
-                    .params
-                    .iter()
-                    .zip(theta.iter().zip(step.iter()))
-                    .map(|(&p, (t, s))| {
-                        let (lo, hi) = Self::bounds(p);
-                        (t + s).clamp(lo, hi)
-                    })
-                    .collect();
-                let (ph2, lc2) = self.apply(&trial)?;
-                let v2 = self.body.generate(&ph2, &lc2).map_err(gen_err)?.vertices;
-                let (r2, _) = self.residuals(&v2, given, false)?;
-                let c2 = r2.iter().map(|x| x * x).sum::<f64>() + self.prior(&trial, &theta0);
-                if c2 < cost {
-                    accepted = Some((trial, v2, c2));
-                    mu = (mu / 3.0).max(1e-9);
-                    break;
-                }
-                mu *= 10.0;
-            }
-            let Some((trial, v2, c2)) = accepted else {
-                break;
-            };
-            let gain = (cost - c2) / cost.max(1e-300);
-            let moved = trial
-                .iter()
-                .zip(&theta)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            theta = trial;
-            vertices = v2;
-            cost = c2;
-            if gain < 1e-6 || moved < 1e-7 {
-                break;
-            }
-        }
-        let (ph, lc) = self.apply(&theta)?;
-        let (r, _) = self.residuals(&vertices, given, false)?;
-        let rms_mm = (r.iter().map(|x| x * x).sum::<f64>() / nm as f64).sqrt();
-        Ok(GeneratorSolution {
-            phenotype: ph,
-            local_changes: lc,
-            vertices,
-            cost,
-            rms_mm,
-            iterations,
-        })
-    }
-
-    /// The damped Gauss-Newton step `-(J^T J + mu (diag + 1)) ^-1 J^T r`
-    /// over the parameters not held at a bound (active set).
-    fn bounded_step(
-        &self,
-        jtj: &DMatrix<f64>,
-        g: &DVector<f64>,
-        theta: &[f64],
-        mu: f64,
-    ) -> DVector<f64> {
-        let np = theta.len();
-        let mut free = vec![true; np];
-        let mut step = DVector::zeros(np);
-        for _ in 0..np {
-            let idx: Vec<usize> = (0..np).filter(|&k| free[k]).collect();
-            if idx.is_empty() {
-                break;
-            }
-            let mut a = DMatrix::from_fn(idx.len(), idx.len(), |x, y| jtj[(idx[x], idx[y])]);
-            for d in 0..idx.len() {
-                a[(d, d)] += mu * (1.0 + a[(d, d)]);
-            }
-            let b = DVector::from_fn(idx.len(), |x, _| -g[idx[x]]);
-            let Some(s) = a.cholesky().map(|c| c.solve(&b)) else {
-                break;
-            };
-            step.fill(0.0);
-            for (d, &k) in idx.iter().enumerate() {
-                step[k] = s[d];
-            }
-            let mut blocked = false;
-            for &k in &idx {
-                let (lo, hi) = Self::bounds(self.params[k]);
-                if (theta[k] <= lo + 1e-12 && step[k] < 0.0)
-                    || (theta[k] >= hi - 1e-12 && step[k] > 0.0)
-                {
-                    free[k] = false;
-                    blocked = true;
-                }
-            }
-            if !blocked {
-                break;
-            }
-        }
-        step
+    pub fn parameters(&self) -> Vec<Param> {
+        self.free.iter().map(|f| f.param).collect()
     }
 
     /// Fits the generator to `targets` (length M, metres, `None` = not
@@ -355,22 +178,29 @@ impl GeneratorFit {
         targets: &[Option<f64>],
     ) -> Result<GeneratorSolution, MethodError> {
         let given = given_targets(Self::NAME, targets, &self.names)?;
-        let mut best: Option<GeneratorSolution> = None;
-        let mut iterations = 0;
-        for gender in [0.0, 1.0] {
-            let start = Phenotype {
-                gender,
-                ..Phenotype::default()
-            };
-            let sol = self.run(&given, start)?;
-            iterations += sol.iterations;
-            if best.as_ref().is_none_or(|b| sol.cost < b.cost) {
-                best = Some(sol);
-            }
-        }
-        let mut best = best.expect("two starts ran");
-        best.iterations = iterations;
-        Ok(best)
+        let err = |e: FitError| predict_err(Self::NAME, e.to_string());
+        let starts = [0.0, 1.0].map(|gender| {
+            (
+                Phenotype {
+                    gender,
+                    ..Phenotype::default()
+                },
+                LocalChanges::new(),
+            )
+        });
+        let fit = self
+            .fitter()
+            .map_err(err)?
+            .fit(&given, &starts)
+            .map_err(err)?;
+        Ok(GeneratorSolution {
+            rms_mm: fit.rms_mm(&given),
+            phenotype: fit.phenotype,
+            local_changes: fit.local_changes,
+            vertices: fit.mesh.vertices,
+            cost: fit.cost,
+            iterations: fit.iterations,
+        })
     }
 }
 

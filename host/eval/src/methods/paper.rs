@@ -21,8 +21,8 @@
 
 use std::sync::Arc;
 
-use tapeshape_engine::measure::CompiledSet;
-use tapeshape_engine::mesh::Topology;
+use tapeshape_measure::CompiledSet;
+use tapeshape_mesh::Topology;
 use tapeshape_model::predict::{Control, PredictProgress};
 use tapeshape_model::{PredictConfig, PredictSettings, ShapeModel, Target};
 

@@ -9,10 +9,10 @@
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
-use tapeshape_engine::dataset::{generate_population, Dataset, PopulationSettings};
-use tapeshape_engine::measure::{CompiledSet, MeasurementSet};
-use tapeshape_engine::mesh::Vec3;
 use tapeshape_eval::TrainingData;
+use tapeshape_measure::{CompiledSet, MeasurementSet};
+use tapeshape_mesh::Vec3;
+use tapeshape_population::{generate_population, Dataset, PopulationSettings};
 
 /// The fixture: training data and held-out bodies with their measurements.
 pub struct Fixture {
@@ -62,7 +62,7 @@ pub fn fixture() -> &'static Fixture {
     F.get_or_init(|| {
         let train = cached(40, 7);
         let held = cached(4, 8);
-        let anatomy = tapeshape_engine::body::anatomy::anatomy();
+        let anatomy = tapeshape_body::anatomy::anatomy();
         let compiled = Arc::new(
             MeasurementSet::builtin("paper34")
                 .expect("paper34")

@@ -1,5 +1,5 @@
-//! What a prediction measures its shapes with: the [`Measurer`] trait (the
-//! engine's operators implement it) and the checks on what it returns.
+//! What a prediction measures its shapes with: the [`Measurer`] trait
+//! (`tapeshape-measure`'s operators implement it) and the checks on what it returns.
 
 use tapeshape_measure::Measured;
 use tapeshape_mesh::Vec3;
@@ -10,7 +10,7 @@ use crate::{ModelError, Result, ShapeModel, MM_PER_M};
 pub type MeasureError = Box<dyn std::error::Error + Send + Sync>;
 
 /// Measures a mesh with a measurement set whose order matches the model's
-/// measurement names. Implemented by the engine with the real operators.
+/// measurement names. Implemented for `tapeshape-measure`'s compiled sets.
 pub trait Measurer {
     /// Number of measurements M in the set.
     fn n_measurements(&self) -> usize;

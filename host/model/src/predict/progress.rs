@@ -14,8 +14,8 @@ use crate::{ModelError, Result};
 
 pub use crate::lbfgs::Control;
 
-/// The stages of a prediction, in order. The engine reports
-/// [`PredictStage::Check`] while it checks the readings; the model reports
+/// The stages of a prediction, in order. The estimator
+/// (`tapeshape-estimator`) reports [`PredictStage::Check`] while it checks the readings; the model reports
 /// the others.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum PredictStage {

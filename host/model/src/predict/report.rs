@@ -5,6 +5,7 @@
 
 use std::time::Duration;
 
+use tapeshape_mesh::vec3::{dot, norm, triangle_normal};
 use tapeshape_mesh::{Topology, Vec3};
 
 use super::readings::Readings;
@@ -411,24 +412,13 @@ pub fn chi2_quantile(x: f64, k: usize) -> f64 {
 /// from `before` (flipped) or whose area fell below 1% of it (degenerate).
 pub fn triangle_changes(topology: &Topology, before: &[Vec3], after: &[Vec3]) -> (usize, usize) {
     let normal = |p: &[Vec3], f: &[u32; 3]| {
-        let (a, b, c) = (p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]);
-        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let w = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        [
-            u[1] * w[2] - u[2] * w[1],
-            u[2] * w[0] - u[0] * w[2],
-            u[0] * w[1] - u[1] * w[0],
-        ]
+        triangle_normal(p[f[0] as usize], p[f[1] as usize], p[f[2] as usize])
     };
     let (mut flipped, mut degenerate) = (0, 0);
     for f in topology.faces() {
         let (n0, n1) = (normal(before, f), normal(after, f));
-        let dot = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
-        let (a0, a1) = (
-            (n0[0] * n0[0] + n0[1] * n0[1] + n0[2] * n0[2]).sqrt(),
-            (n1[0] * n1[0] + n1[1] * n1[1] + n1[2] * n1[2]).sqrt(),
-        );
-        if dot < 0.0 {
+        let (a0, a1) = (norm(n0), norm(n1));
+        if dot(n0, n1) < 0.0 {
             flipped += 1;
         } else if a1 < 0.01 * a0 {
             degenerate += 1;

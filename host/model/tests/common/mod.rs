@@ -197,9 +197,7 @@ pub fn train(n: usize, seed: u64) -> tapeshape_model::ShapeModel {
 pub fn v2v_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
     a.iter()
         .zip(b)
-        .map(|(p, q)| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-        })
+        .map(|(p, q)| tapeshape_mesh::vec3::distance(*p, *q))
         .sum::<f64>()
         / a.len() as f64
         * 1000.0

@@ -1,4 +1,4 @@
-//! Real engine pieces for integration tests and the benchmark: MakeHuman
+//! Real pieces for integration tests and the benchmark: MakeHuman
 //! bodies from tapeshape-body, measured with a tapeshape-measure set.
 
 #![allow(dead_code)]

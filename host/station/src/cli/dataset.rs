@@ -1,13 +1,13 @@
 //! `tapeshape dataset`: make, import and inspect databases of registered
 //! bodies (the training data of the shape model).
 //!
-//! The file format is documented in `tapeshape_engine::dataset` and
+//! The file format is documented in `tapeshape_population` and
 //! `docs/datasets.md`.
 
 use std::path::PathBuf;
 
 use anyhow::Context as _;
-use tapeshape_engine::dataset::{self, Dataset, PopulationSettings};
+use tapeshape_population::{self as dataset, Dataset, PopulationSettings};
 
 use super::Global;
 

@@ -277,7 +277,7 @@ fn run_interactive(
     sessions: Sessions,
     temp: Option<&std::path::Path>,
 ) -> anyhow::Result<()> {
-    use crate::tui::operator::{Autopilot, SimOperator, SimTape};
+    use crate::tui::operator::{Autopilot, SimDemo, SimOperator, SimTape};
     let set = tapeshape_measure::MeasurementSet::load(&args.measurement_set)?;
     let customer = demo_customer(&set, args.seed)?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -318,7 +318,10 @@ fn run_interactive(
         export_dir: export_dir.clone(),
         log_dir: data_dir,
         default_set: set.name.clone(),
-        demo: Some((tape, Autopilot::new(operator))),
+        demo: Some(Box::new(SimDemo {
+            tape,
+            pilot: Autopilot::new(operator),
+        })),
     };
     let result = crate::tui::runner::run_with_log(options, services, &runtime);
     drop(harness);
@@ -359,7 +362,7 @@ pub struct DemoCustomer {
     /// Who it is, for the operator.
     pub description: String,
     /// Sex, when the customer is a real person (`None`: synthetic lengths).
-    pub sex: Option<tapeshape_engine::ansur::Sex>,
+    pub sex: Option<tapeshape_population::ansur::Sex>,
 }
 
 /// The ANSUR II test-split subject number `seed` (modulo the split's size)
@@ -369,7 +372,7 @@ pub fn demo_customer(
     set: &tapeshape_measure::MeasurementSet,
     seed: u64,
 ) -> anyhow::Result<DemoCustomer> {
-    use tapeshape_engine::ansur::{Ansur, Split};
+    use tapeshape_population::ansur::{Ansur, Split};
     let ansur = Ansur::get()?;
     let test: Vec<_> = ansur.subjects(None, Split::Test).collect();
     let subject = test[(seed % test.len() as u64) as usize];
@@ -425,13 +428,13 @@ fn population_customer(
     set: &tapeshape_measure::MeasurementSet,
     seed: u64,
 ) -> anyhow::Result<Option<DemoCustomer>> {
-    use tapeshape_engine::dataset::{generate_population, PopulationSettings};
-    use tapeshape_engine::predict::Engine;
-    let engine = Engine::default_model()?;
+    use tapeshape_estimator::Estimator;
+    use tapeshape_population::{generate_population, PopulationSettings};
+    let estimator = Estimator::default_model()?;
     let Some(index): Option<Vec<usize>> = set
         .definitions
         .iter()
-        .map(|d| engine.set().index_of(&d.name))
+        .map(|d| estimator.set().index_of(&d.name))
         .collect()
     else {
         return Ok(None);
@@ -447,10 +450,10 @@ fn population_customer(
     let population = generate_population(&settings, &|_, _| {})
         .context("generating the demo's simulated customer")?;
     let body = &population.bodies[0];
-    if body.len() != engine.topology().n_vertices() {
+    if body.len() != estimator.topology().n_vertices() {
         return Ok(None);
     }
-    let measured = engine
+    let measured = estimator
         .compiled()
         .measure(body)
         .context("measuring the demo's simulated customer")?;
@@ -468,7 +471,7 @@ fn population_customer(
     let record = population.header.bodies.first();
     let sex = record
         .and_then(|r| r.sex)
-        .unwrap_or(tapeshape_engine::ansur::Sex::Female);
+        .unwrap_or(tapeshape_population::ansur::Sex::Female);
     Ok(Some(DemoCustomer {
         values,
         description: format!(

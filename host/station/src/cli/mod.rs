@@ -44,11 +44,12 @@ macro_rules! outln {
 
 pub mod customer;
 pub mod dataset;
+#[cfg(feature = "demo")]
 pub mod demo;
-pub mod eval;
 #[cfg(feature = "hub")]
 pub mod hub;
 pub mod measure;
+pub mod moved;
 pub mod predict;
 pub mod session;
 pub mod sessions;

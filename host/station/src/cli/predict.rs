@@ -3,9 +3,9 @@
 //! and prints, per measurement, the target, the value after the start, after
 //! step 1 and after step 2, and the error; then the plausibility and times.
 //!
-//! Why here and not in the engine: parsing the command line, reading the
+//! Why here and not in the estimator: parsing the command line, reading the
 //! readings file and writing files; the checks and the method live in
-//! `tapeshape_engine::predict`, shared with the TUI and the tests.
+//! `tapeshape_estimator`, shared with the TUI and the tests.
 //!
 //! Units: every value takes its unit (`176.5cm`, `1765mm`, `1.765m`,
 //! `69.5in`); a bare number is read as centimetres (what a tape shows) and
@@ -14,7 +14,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _};
-use tapeshape_engine::predict::{Engine, EstimateReport, Inputs, PredictOptions};
+use tapeshape_estimator::{EstimateReport, Estimator, Inputs, PredictOptions};
 
 use super::Global;
 use crate::estimate::MeshFormat;
@@ -76,20 +76,20 @@ pub struct Args {
 fn load_engine(model: Option<&Path>) -> anyhow::Result<EngineRef> {
     Ok(match model {
         Some(p) => EngineRef::Owned(Box::new(
-            Engine::load(p).with_context(|| format!("loading the model {}", p.display()))?,
+            Estimator::load(p).with_context(|| format!("loading the model {}", p.display()))?,
         )),
-        None => EngineRef::Default(Engine::default_model()?),
+        None => EngineRef::Default(Estimator::default_model()?),
     })
 }
 
 enum EngineRef {
-    Owned(Box<Engine>),
-    Default(&'static Engine),
+    Owned(Box<Estimator>),
+    Default(&'static Estimator),
 }
 
 impl std::ops::Deref for EngineRef {
-    type Target = Engine;
-    fn deref(&self) -> &Engine {
+    type Target = Estimator;
+    fn deref(&self) -> &Estimator {
         match self {
             EngineRef::Owned(e) => e,
             EngineRef::Default(e) => e,
@@ -99,9 +99,9 @@ impl std::ops::Deref for EngineRef {
 
 /// Runs `tapeshape predict`.
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
-    let engine = load_engine(args.model.as_deref())?;
+    let estimator = load_engine(args.model.as_deref())?;
     if args.list {
-        print_list(&engine)?;
+        print_list(&estimator)?;
         return Ok(());
     }
     if let Some(out) = &args.out {
@@ -126,11 +126,11 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         s: args.s,
         ..PredictOptions::default()
     };
-    let estimate = engine.predict(&inputs, &options)?;
+    let estimate = estimator.predict(&inputs, &options)?;
     print_report(&estimate.report)?;
     if let Some(path) = &args.report {
         let json = serde_json::to_vec_pretty(&estimate.report).context("encoding the report")?;
-        tapeshape_mesh::io::write_atomic(path, &json)
+        tapeshape_common::fs::write_atomic(path, &json)
             .with_context(|| format!("writing the report {}", path.display()))?;
         outln!("report: {}", path.display())?;
     }
@@ -147,18 +147,18 @@ fn write_mesh(mesh: &tapeshape_mesh::Mesh, path: &Path) -> anyhow::Result<()> {
         .with_context(|| format!("writing the body {}", path.display()))
 }
 
-fn print_list(engine: &Engine) -> std::io::Result<()> {
+fn print_list(estimator: &Estimator) -> std::io::Result<()> {
     let sets: Vec<(&str, Vec<String>)> = ["quick", "ansur", "paper34"]
         .iter()
-        .filter_map(|s| engine.set_members(s).ok().map(|m| (*s, m)))
+        .filter_map(|s| estimator.set_members(s).ok().map(|m| (*s, m)))
         .collect();
     outln!(
         "{} measurements ({}); sets: {}",
-        engine.set().len(),
-        engine.file().measurement_set.name,
+        estimator.set().len(),
+        estimator.file().measurement_set.name,
         sets.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
     )?;
-    for d in &engine.set().definitions {
+    for d in &estimator.set().definitions {
         let member: Vec<&str> = sets
             .iter()
             .filter(|s| s.1.contains(&d.name))

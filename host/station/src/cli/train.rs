@@ -10,8 +10,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use tapeshape_engine::dataset::Dataset;
-use tapeshape_engine::predict::{self, FitSettings, TrainSettings, DEFAULT_SETS};
+use tapeshape_estimator::{self as predict, FitSettings, TrainSettings, DEFAULT_SETS};
+use tapeshape_population::Dataset;
 
 use super::Global;
 

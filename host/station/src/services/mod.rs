@@ -2,7 +2,7 @@
 //! captured reading, estimating a body, exporting it, showing a stored
 //! estimate), behind one trait with small plain types.
 //!
-//! Why a boundary: the interface thread must never block on the engine
+//! Why a boundary: the interface thread must never block on the estimator
 //! (an estimate takes a fraction of a second to seconds), and the checks and
 //! estimates have their own modules and tests (`crate::check`,
 //! `crate::estimate`). A front end only sees [`Services`] and the types
@@ -17,7 +17,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use tapeshape_engine::predict::{PredictError, Unit};
+use tapeshape_estimator::{PredictError, Unit};
 
 use crate::estimate::{EstimateError, ExportError, MeshFormat};
 use crate::store::{SessionId, StoreError};
@@ -63,8 +63,8 @@ pub struct EstimateRequest {
     pub readings: Vec<(String, f64)>,
 }
 
-/// A stage of the estimate: the engine's (one type from the model up).
-pub use tapeshape_engine::predict::PredictStage as Stage;
+/// A stage of the estimate: the estimator's (one type from the model up).
+pub use tapeshape_estimator::PredictStage as Stage;
 
 /// The stages the estimating screen lists, in order (`Done` is the result).
 pub const STAGES: [Stage; 4] = [Stage::Check, Stage::Start, Stage::Step1, Stage::Step2];
@@ -193,7 +193,7 @@ pub trait Cancel: Send {
     fn cancel(&self);
 }
 
-/// The work the front ends ask for. Implemented over the engine modules
+/// The work the front ends ask for. Implemented over the estimator modules
 /// and the session layer by [`station::StationServices`]; tests use fixtures.
 pub trait Services: Send + Sync {
     /// Checks one reading against the others (quick: called on a blocking

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-use tapeshape_engine::predict::{Engine, Estimate, Inputs, PredictOptions};
+use tapeshape_estimator::{Estimate, Estimator, Inputs, PredictOptions};
 use tapeshape_mesh::{Mesh, Topology, Vec3};
 
 use crate::check::{check_reading_with_tolerance, Flag};
@@ -56,11 +56,11 @@ impl StationServices {
 /// chain's hub and its 3D viewer; `None` if it is not on the default
 /// model's template (or the model cannot be loaded).
 pub fn glb_of(stored: &StoredEstimate) -> Option<Vec<u8>> {
-    let engine = engine().ok()?;
-    if stored.template_sha256 != default_template_sha256(engine) {
+    let estimator = estimator().ok()?;
+    if stored.template_sha256 != default_template_sha256(estimator) {
         return None;
     }
-    let mesh = Mesh::new(stored.vertices.clone(), engine.topology().clone()).ok()?;
+    let mesh = Mesh::new(stored.vertices.clone(), estimator.topology().clone()).ok()?;
     tapeshape_mesh::io::glb_bytes(&mesh, "body").ok()
 }
 
@@ -82,8 +82,8 @@ pub fn reading_tolerance_m(mm: Option<f64>) -> Result<Option<f64>, BadTolerance>
     }
 }
 
-fn engine() -> Result<&'static Engine, ServiceError> {
-    Engine::default_model().map_err(ServiceError::Model)
+fn estimator() -> Result<&'static Estimator, ServiceError> {
+    Estimator::default_model().map_err(ServiceError::Model)
 }
 
 /// SHA-256 (hex) of a template topology: its vertex count and triangles
@@ -101,9 +101,9 @@ pub fn template_sha256(topology: &Topology) -> String {
 }
 
 /// [`template_sha256`] of the default model's template, computed once.
-fn default_template_sha256(engine: &Engine) -> &'static str {
+fn default_template_sha256(estimator: &Estimator) -> &'static str {
     static SHA: OnceLock<String> = OnceLock::new();
-    SHA.get_or_init(|| template_sha256(engine.topology()))
+    SHA.get_or_init(|| template_sha256(estimator.topology()))
 }
 
 fn session_info(s: &Session, exported_at_ms: i64) -> SessionInfo {
@@ -119,7 +119,7 @@ impl StationServices {
     /// Stores `est` (made from `request` in `seconds`) with its session.
     fn store(
         &self,
-        engine: &Engine,
+        estimator: &Estimator,
         request: &EstimateRequest,
         est: &Estimate,
         seconds: f64,
@@ -136,7 +136,7 @@ impl StationServices {
             made_at_ms: crate::store::now_ms(),
             seconds,
             model_source: est.report.model.source.clone(),
-            template_sha256: default_template_sha256(engine).to_string(),
+            template_sha256: default_template_sha256(estimator).to_string(),
             vertices: est.mesh.vertices.clone(),
             readings: request
                 .readings
@@ -163,7 +163,7 @@ impl StationServices {
 
 impl Services for StationServices {
     fn check(&self, req: &CheckRequest) -> CheckOutcome {
-        let engine = match engine() {
+        let estimator = match estimator() {
             Ok(e) => e,
             Err(e) => {
                 return CheckOutcome {
@@ -178,7 +178,7 @@ impl Services for StationServices {
             .map(|(n, mm)| (n.as_str(), mm / 1000.0))
             .collect();
         match check_reading_with_tolerance(
-            engine,
+            estimator,
             &taken,
             (&req.name, req.value_mm / 1000.0),
             req.tape_unit,
@@ -216,7 +216,7 @@ impl Services for StationServices {
             stage: Stage::Check,
             fraction: 0.0,
         });
-        let engine = match engine() {
+        let estimator = match estimator() {
             Ok(e) => e,
             Err(e) => {
                 sink(EstimateEvent::Failed(e.to_string()));
@@ -232,7 +232,8 @@ impl Services for StationServices {
             }
         }
         let t0 = Instant::now();
-        let running = match estimate::start_estimate(engine, &inputs, &PredictOptions::default()) {
+        let running = match estimate::start_estimate(estimator, &inputs, &PredictOptions::default())
+        {
             Ok(j) => j,
             Err(e) => {
                 sink(EstimateEvent::Failed(e.to_string()));
@@ -272,7 +273,7 @@ impl Services for StationServices {
                     Ok(est) => {
                         let seconds = t0.elapsed().as_secs_f64();
                         match this
-                            .store(engine, &request, &est, seconds)
+                            .store(estimator, &request, &est, seconds)
                             .and_then(|stored| summarise(&stored))
                         {
                             Ok(summary) => EstimateEvent::Done(Box::new(summary)),
@@ -301,15 +302,15 @@ impl Services for StationServices {
         format: MeshFormat,
         folder: &Path,
     ) -> Result<Vec<PathBuf>, ServiceError> {
-        let engine = engine()?;
+        let estimator = estimator()?;
         let (stored, mut report) = self.stored(session)?;
-        if stored.template_sha256 != default_template_sha256(engine) {
+        if stored.template_sha256 != default_template_sha256(estimator) {
             return Err(ServiceError::OtherTemplate {
                 session,
                 model: stored.model_source,
             });
         }
-        let mesh = Mesh::new(stored.vertices, engine.topology().clone()).map_err(|_| {
+        let mesh = Mesh::new(stored.vertices, estimator.topology().clone()).map_err(|_| {
             ServiceError::OtherTemplate {
                 session,
                 model: stored.model_source.clone(),

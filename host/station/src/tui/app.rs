@@ -6,7 +6,7 @@
 //! a link event, estimate progress, a tick) and returns the [`Effect`]s the
 //! runner must perform (set the link's naming, create a session, start an
 //! estimate, export ...). Results of effects come back as events. So tests
-//! drive the whole operator flow without a terminal, a tape or an engine.
+//! drive the whole operator flow without a terminal, a tape or an estimator.
 //!
 //! This file keeps what is not one screen's: the keys that work anywhere
 //! (help, device, history, quit), routing a key to the screen shown, the
@@ -14,7 +14,7 @@
 //! (`tui/screens/<screen>.rs`) owns its state, its keys and their words
 //! (footer and help come from the same list the key handler uses) and its
 //! drawing. The demo's simulated operator is not here: it is an event source
-//! of its own ([`crate::tui::operator::Autopilot`]) that only tells the app
+//! of its own (`tui::operator::Autopilot`, [`crate::tui::runner::Demo`]) that only tells the app
 //! when a person takes over ([`Event::TakenOver`]).
 //!
 //! Readings are never held here: every reading is committed to the store
@@ -25,7 +25,7 @@
 use std::path::PathBuf;
 
 use crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
-use tapeshape_engine::predict::Unit;
+use tapeshape_estimator::Unit;
 use tapeshape_protocol::UnitShown;
 
 use crate::estimate::MeshFormat;

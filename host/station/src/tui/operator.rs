@@ -16,7 +16,7 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use crossterm::event::{KeyCode, KeyEvent};
-use tapeshape_engine::ansur::Sex;
+use tapeshape_population::ansur::Sex;
 use tapeshape_protocol::UnitShown;
 use tapeshape_sim::pty::TtyStream;
 use tapeshape_sim::tape::{play, Script, Step, TapeLine, TapeTiming};
@@ -283,5 +283,29 @@ impl Autopilot {
         } else {
             self.operator.next(app, now)
         }
+    }
+}
+
+/// The demo as the runner drives it ([`crate::tui::runner::Demo`]): the
+/// simulated tape and the keyboard the simulated operator holds.
+#[derive(Debug)]
+pub struct SimDemo {
+    /// The simulated tape.
+    pub tape: SimTape,
+    /// The keyboard.
+    pub pilot: Autopilot,
+}
+
+impl crate::tui::runner::Demo for SimDemo {
+    fn person_key(&mut self, key: KeyEvent) -> Event {
+        self.pilot.person_key(key)
+    }
+
+    fn tick(&mut self, app: &App, now: Instant) -> Vec<Event> {
+        self.pilot.tick(app, now)
+    }
+
+    fn measure(&self, name: &str, slip: bool) -> Result<(), String> {
+        self.tape.measure(name, slip).map_err(|e| e.to_string())
     }
 }

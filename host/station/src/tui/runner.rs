@@ -8,7 +8,7 @@
 //! bodies the services'. Keys come from a small input thread (crossterm's
 //! blocking `poll`/`read`, stopped through a flag), link events from the
 //! link's channel, estimate progress from the services' sink, and the
-//! demo's simulated operator from [`Autopilot`] on the tick. Session changes
+//! demo's simulated operator from its [`Demo`] on the tick. Session changes
 //! are short (a few milliseconds with the fsync) and run inline; checks,
 //! estimates, exports and keyboard captures run on blocking threads.
 
@@ -25,7 +25,6 @@ use crate::link::{Link, LinkConfig, LinkHandle, Naming};
 use crate::services::{Cancel, SharedServices};
 use crate::session::Sessions;
 use crate::tui::app::{update, App, AppConfig, Effect, Event};
-use crate::tui::operator::{Autopilot, SimTape};
 
 /// How the runner starts.
 pub struct RunOptions {
@@ -45,8 +44,26 @@ pub struct RunOptions {
     pub log_dir: PathBuf,
     /// Set preselected for new customers.
     pub default_set: String,
-    /// The demo's simulated tape and keyboard.
-    pub demo: Option<(SimTape, Autopilot)>,
+    /// The demo's simulated tape and keyboard (`tapeshape demo`; the kiosk
+    /// has none).
+    pub demo: Option<Box<dyn Demo>>,
+}
+
+/// The demo's simulated tape and keyboard, as the runner sees them.
+///
+/// Why a trait: the simulated tape needs the simulator (`tapeshape-sim`),
+/// which the kiosk build leaves out (the `demo` feature); through this
+/// trait the runner is the same code in both builds. The demo's
+/// implementation is `tui::operator::SimDemo`.
+pub trait Demo: Send {
+    /// A key a person pressed, as the app should hear it (the first one
+    /// takes over from the simulated operator).
+    fn person_key(&mut self, key: ct::KeyEvent) -> Event;
+    /// The simulated operator's keys for this tick.
+    fn tick(&mut self, app: &App, now: Instant) -> Vec<Event>;
+    /// Has the simulated tape measure `name` (`slip`: read off the wrong
+    /// scale); the error is operator text.
+    fn measure(&self, name: &str, slip: bool) -> Result<(), String>;
 }
 
 /// Runs the interface in the current terminal until the operator quits.
@@ -97,13 +114,9 @@ async fn run_in(
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_nanos() as u64)
         .unwrap_or(1);
-    let (sim_tape, mut autopilot) = match demo {
-        Some((t, a)) => (Some(t), Some(a)),
-        None => (None, None),
-    };
     let mut app = App::new(AppConfig {
         port: port_label,
-        demo: sim_tape.is_some(),
+        demo: demo.is_some(),
         mono,
         id_seed,
         default_set,
@@ -115,7 +128,7 @@ async fn run_in(
         services,
         export_dir,
         cancel: None,
-        sim_tape,
+        demo,
     };
     for fx in app.start() {
         ctx.perform(fx);
@@ -133,7 +146,7 @@ async fn run_in(
             _ = tick.tick() => Event::Tick,
         };
         let mut events = Vec::new();
-        match (ev, autopilot.as_mut()) {
+        match (ev, ctx.demo.as_mut()) {
             // In the demo a person's key goes through the autopilot (the
             // first one takes over).
             (Event::Key(k), Some(pilot)) => events.push(pilot.person_key(k)),
@@ -212,7 +225,7 @@ struct Ctx {
     services: SharedServices,
     export_dir: PathBuf,
     cancel: Option<Box<dyn Cancel>>,
-    sim_tape: Option<SimTape>,
+    demo: Option<Box<dyn Demo>>,
 }
 
 impl Ctx {
@@ -355,10 +368,10 @@ impl Ctx {
                 }
                 self.perform(Effect::LoadHistory);
             }
-            Effect::SimTape { name, slip } => match &self.sim_tape {
-                Some(t) => {
-                    if let Err(e) = t.measure(&name, slip) {
-                        self.send(Event::Failed(e.to_string()));
+            Effect::SimTape { name, slip } => match &self.demo {
+                Some(d) => {
+                    if let Err(e) = d.measure(&name, slip) {
+                        self.send(Event::Failed(e));
                     }
                 }
                 None => self.send(Event::Failed(

@@ -13,7 +13,7 @@ use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Clear, Paragraph, Wrap};
 use ratatui::Frame;
-use tapeshape_engine::ansur::Sex;
+use tapeshape_population::ansur::Sex;
 
 use crate::session::ResumeOffer;
 use crate::store::Consent;

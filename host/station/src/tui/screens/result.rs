@@ -13,7 +13,7 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::canvas::{Canvas, Points};
 use ratatui::widgets::{Block, Cell, Paragraph, Row, Table, Wrap};
 use ratatui::Frame;
-use tapeshape_engine::predict::Unit;
+use tapeshape_estimator::Unit;
 
 use crate::estimate::MeshFormat;
 use crate::services::EstimateSummary;

@@ -2,7 +2,7 @@
 //! and what happens to it when a session is opened, a reading is stored and
 //! a check answers.
 
-use tapeshape_engine::predict::Unit;
+use tapeshape_estimator::Unit;
 use tapeshape_protocol::UnitShown;
 
 use crate::services::{CheckOutcome, CheckRequest, EstimateRequest};

@@ -1,0 +1,732 @@
+//! Prediction experiments of issue 4, printing markdown tables.
+//!
+//! Why an example and not a test: these take minutes on hundreds of bodies;
+//! the reduced versions run in CI (`host/estimator/tests/predict.rs`); the full
+//! evaluation suite is the `tapeshape-eval` program (`host/eval`).
+//!
+//! ```text
+//! # the paper's S_real: train on a population, predict held-out bodies from paper34
+//! cargo run --release -p tapeshape-estimator --example predict_eval -- sreal \
+//!     --train /work/out/pop400s1.tsd --heldout /work/out/held60s2.tsd --n 50 \
+//!     [--model host/estimator/models/default.tsm.gz]
+//! # ISO 20685-1 pass shares for quick and ansur (generated bodies and ANSUR test subjects)
+//! cargo run --release -p tapeshape-estimator --example predict_eval -- iso \
+//!     --heldout /work/out/held60s2.tsd --n 50 --ansur 100 --subsets 3 [--model FILE] [--l 3]
+//! # why a reading misses: start / step 1 / step 2 values and the L-BFGS runs of
+//! # every failing prediction (held-out bodies, or ANSUR test subjects without --heldout)
+//! cargo run --release -p tapeshape-estimator --example predict_eval -- diag \
+//!     [--heldout FILE] --n 10 --set quick [--bodies 0,3] [--all 1]
+//! ```
+//!
+//! Every experiment takes the prediction settings as flags (see
+//! `settings_from_args`): `--paper` for the paper's exact pipeline, and
+//! `--gn`, `--w1`, `--w2`, `--w2-scale`, `--prior`, `--k1`, `--box`,
+//! `--cont`, `--budget`, `--iters1`, `--iters2`, `--l`, `--lambda`, `--s`.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use rand::SeedableRng;
+use tapeshape_estimator::{
+    train, Estimator, Inputs, PredictError, PredictOptions, PredictSettings, TrainSettings,
+};
+use tapeshape_measure::Kind;
+use tapeshape_mesh::Vec3;
+use tapeshape_model::predict::{
+    Continuation, EnergyWeighting, Step1Clamp, Step1Solver, Step2Weighting,
+};
+use tapeshape_population::ansur::{Ansur, Split};
+use tapeshape_population::seeded;
+use tapeshape_population::Dataset;
+
+fn arg(args: &[String], name: &str) -> Option<String> {
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|i| args.get(i + 1).cloned())
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("sreal") => sreal(&args),
+        Some("iso") => iso(&args),
+        Some("diag") => diag(&args),
+        _ => Err("usage: predict_eval sreal|iso|diag [options] (see the file's docs)".into()),
+    }
+}
+
+fn vertex_distance_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| tapeshape_mesh::vec3::distance(*p, *q))
+        .sum::<f64>()
+        / a.len() as f64
+        * 1000.0
+}
+
+/// Root-mean-square vertex distance, mm (the quantity the Bayes bound is about).
+fn vertex_rms_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
+    (a.iter()
+        .zip(b)
+        .map(|(p, q)| {
+            let d = tapeshape_mesh::vec3::sub(*p, *q);
+            tapeshape_mesh::vec3::dot(d, d)
+        })
+        .sum::<f64>()
+        / a.len() as f64)
+        .sqrt()
+        * 1000.0
+}
+
+/// Per-class errors of one prediction from paper34: (euclidean, planar
+/// circumference, geodesic loops as the sum of their 4 members).
+fn paper34_errors(
+    estimator: &Estimator,
+    names: &[String],
+    truth: &[f64],
+    pred: &[f64],
+) -> [Vec<f64>; 3] {
+    let mut out: [Vec<f64>; 3] = Default::default();
+    let mut groups: BTreeMap<String, f64> = BTreeMap::new();
+    for (k, name) in names.iter().enumerate() {
+        let d = &estimator.set().definitions[estimator.set().index_of(name).expect("known")];
+        let e = (pred[k] - truth[k]).abs() * 1000.0;
+        match (&d.kind, &d.group) {
+            (_, Some(g)) => *groups.entry(g.clone()).or_default() += e,
+            (Kind::Circumference { .. }, None) => out[1].push(e),
+            _ => out[0].push(e),
+        }
+    }
+    out[2] = groups.into_values().collect();
+    out
+}
+
+/// Drops measurements that are constant (zero SD) on the training set, e.g.
+/// a geodesic between two landmarks that fall on the same vertex: no reading
+/// can inform them. Says which.
+fn usable(estimator: &Estimator, names: Vec<String>) -> Vec<String> {
+    let stats = estimator.file().model.measurement_stats();
+    let (keep, drop): (Vec<String>, Vec<String>) = names
+        .into_iter()
+        .partition(|n| stats[estimator.set().index_of(n).expect("member")].1 > 1e-9);
+    if !drop.is_empty() {
+        eprintln!(
+            "left out (constant on the training set): {}",
+            drop.join(", ")
+        );
+    }
+    keep
+}
+
+fn mean(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        v.iter().sum::<f64>() / v.len() as f64
+    }
+}
+
+fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let heldout = Dataset::read(&PathBuf::from(
+        arg(args, "--heldout").ok_or("--heldout FILE")?,
+    ))?;
+    let n: usize = arg(args, "--n").map_or(Ok(50), |s| s.parse())?;
+    let n = n.min(heldout.len());
+    let mut estimators: Vec<(String, Estimator)> = Vec::new();
+    if let Some(t) = arg(args, "--train") {
+        let data = Dataset::read(&PathBuf::from(&t))?;
+        let t0 = Instant::now();
+        let file = train(&data, &["paper34"], &TrainSettings::default())?;
+        println!(
+            "trained paper34-only model on {} bodies in {:.1} s ({} components)",
+            data.len(),
+            t0.elapsed().as_secs_f64(),
+            file.model.n_components()
+        );
+        estimators.push((
+            format!("paper34 only, {} bodies, all components", data.len()),
+            Estimator::new(file, &t)?,
+        ));
+    }
+    if let Some(m) = arg(args, "--model") {
+        let e = Estimator::load(&PathBuf::from(&m))?;
+        estimators.push((
+            format!(
+                "{} ({} components, {})",
+                m,
+                e.file().model.n_components(),
+                e.file().measurement_set.name
+            ),
+            e,
+        ));
+    }
+    let base = settings_from_args(args)?;
+    println!(
+        "\nS_real: {n} held-out generated bodies, inputs = their paper34 values, settings l = {}, lambda = {}, s = {}, step 1 {:?} weighted {:?}, step-1 components {:?}\n",
+        base.l, base.step2.lambda, base.s, base.step1.solver, base.step1.weighting, base.step1.components
+    );
+    println!("| model | method | Euclidean (14) mm | circumference, planar (4) mm | circumference, geodesic loops (4) mm | all circumferences mm | vertex distance mm | flipped / degenerate vs step-1 shape | flipped / degenerate vs true body (true body vs PCA mean) | mean time s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for (label, estimator) in &estimators {
+        let names = usable(estimator, estimator.set_members("paper34")?);
+        let idx: Vec<usize> = names
+            .iter()
+            .map(|n| estimator.set().index_of(n).expect("member"))
+            .collect();
+        // The floor: no method restricted to the PCA space gets closer to a held-out body
+        // than its orthogonal projection onto that space.
+        let pca = &estimator.file().model.pca;
+        let floor: Vec<f64> = (0..n)
+            .map(|i| {
+                let flat: Vec<f64> = heldout.bodies[i].iter().flatten().copied().collect();
+                let back = pca.reconstruct(&pca.project(&flat));
+                let back: Vec<Vec3> = back.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
+                vertex_distance_mm(&back, &heldout.bodies[i])
+            })
+            .collect();
+        println!(
+            "| {label} | projection of the true body onto the PCA space (floor of step 1) | | | | | {:.2} | | | |",
+            mean(&floor)
+        );
+        // The Bayes bound of the linear-Gaussian model: the weights' covariance
+        // given the readings, pushed through the (orthonormal) basis, gives the
+        // expected squared vertex error of the conditional mean (the best
+        // estimate in the mean-square sense when the readings are linear in
+        // the weights); no method that only uses the training Gaussian can do
+        // better on average.
+        {
+            let model = &estimator.file().model;
+            let m = model.n_measurements();
+            let k = model.n_components();
+            let wanted: Vec<usize> = (m..m + k).collect();
+            let observed: Vec<(usize, f64, f64)> =
+                idx.iter().map(|&j| (j, model.joint.mean[j], 0.0)).collect();
+            let c = model.joint.conditional(&wanted, &observed)?;
+            let v = model.n_vertices() as f64;
+            let ms: f64 = (0..k)
+                .map(|i| model.pca.sigma[i].powi(2) * c.cov[(i, i)])
+                .sum::<f64>()
+                / v;
+            println!(
+                "| {label} | Bayes bound: RMS vertex error expected from the Gaussian conditional of the weights on these readings | | | | | RMS {:.2} | | | |",
+                ms.sqrt() * 1000.0
+            );
+        }
+        // Per-body vertex distance of feature analysis, for the paired comparison.
+        let mut vd_fa: Vec<f64> = Vec::new();
+        for (method, s) in [
+            ("feature analysis alone (start)", 0usize),
+            ("full (start + steps 1, 2)", 3),
+        ] {
+            let settings = PredictOptions::custom(PredictSettings {
+                s,
+                ..settings_from_args(args)?
+            });
+            let (mut eu, mut ci, mut lo, mut vd, mut tt) = (vec![], vec![], vec![], vec![], vec![]);
+            let mut vd1 = vec![];
+            let (mut rms, mut rms1) = (vec![], vec![]);
+            let (mut flipped, mut degenerate) = (0, 0);
+            let (mut own_flipped, mut own_degenerate, mut truth_vs_mean) = (0, 0, 0);
+            let mean_shape =
+                estimator
+                    .file()
+                    .model
+                    .shape(&vec![0.0; estimator.file().model.n_components()])?;
+            for i in 0..n {
+                let body = &heldout.bodies[i];
+                let truth: Vec<f64> = idx
+                    .iter()
+                    .map(|&j| estimator.compiled().measure_one(j, body).map(|m| m.value))
+                    .collect::<Result<_, _>>()?;
+                let mut inputs = Inputs::new();
+                for (name, v) in names.iter().zip(&truth) {
+                    inputs.insert_metres(name, *v)?;
+                }
+                let t0 = Instant::now();
+                let est = estimator.predict(&inputs, &settings)?;
+                tt.push(t0.elapsed().as_secs_f64());
+                let pred: Vec<f64> = idx
+                    .iter()
+                    .map(|&j| {
+                        estimator
+                            .compiled()
+                            .measure_one(j, &est.mesh.vertices)
+                            .map(|m| m.value)
+                    })
+                    .collect::<Result<_, _>>()?;
+                let [a, b, c] = paper34_errors(estimator, &names, &truth, &pred);
+                eu.extend(a);
+                ci.extend(b);
+                lo.extend(c);
+                vd.push(vertex_distance_mm(&est.mesh.vertices, body));
+                rms.push(vertex_rms_mm(&est.mesh.vertices, body));
+                if s > 0 {
+                    let w1 = &est.report.prediction.weights_step1;
+                    let x1 = estimator.file().model.shape(w1)?;
+                    vd1.push(vertex_distance_mm(&x1, body));
+                    rms1.push(vertex_rms_mm(&x1, body));
+                }
+                let (f, d) = tapeshape_model::predict::triangle_changes(
+                    estimator.topology(),
+                    body,
+                    &est.mesh.vertices,
+                );
+                flipped += f;
+                degenerate += d;
+                let pl = &est.report.prediction.plausibility;
+                own_flipped += pl.flipped_triangles;
+                own_degenerate += pl.degenerate_triangles;
+                let (f0, _) = tapeshape_model::predict::triangle_changes(
+                    estimator.topology(),
+                    body,
+                    &mean_shape,
+                );
+                truth_vs_mean += f0;
+            }
+            let all: Vec<f64> = ci.iter().chain(&lo).copied().collect();
+            println!(
+                "| {label} | {method} | {:.4} | {:.3} | {:.3} | {:.3} | {:.2} (RMS {:.2}) | {own_flipped} / {own_degenerate} | {flipped} / {degenerate} ({truth_vs_mean}) | {:.3} |",
+                mean(&eu),
+                mean(&ci),
+                mean(&lo),
+                mean(&all),
+                mean(&vd),
+                mean(&rms),
+                mean(&tt)
+            );
+            if s == 0 {
+                vd_fa = vd.clone();
+            } else if vd_fa.len() == vd.len() && vd.len() > 1 {
+                // Paired: the same bodies, so the body-to-body spread cancels.
+                let d: Vec<f64> = vd.iter().zip(&vd_fa).map(|(a, b)| a - b).collect();
+                let md = mean(&d);
+                let sd =
+                    (d.iter().map(|x| (x - md).powi(2)).sum::<f64>() / (d.len() - 1) as f64).sqrt();
+                println!(
+                    "| {label} | paired: full minus feature analysis, per body | | | | | {md:+.3} +- {:.3} (SE); closer on {}/{} bodies | | | |",
+                    sd / (d.len() as f64).sqrt(),
+                    d.iter().filter(|x| **x < 0.0).count(),
+                    d.len()
+                );
+            }
+            if !vd1.is_empty() {
+                println!(
+                    "| {label} | step-1 shape of the full run (inside the PCA space) | | | | | {:.2} (RMS {:.2}) | | | |",
+                    mean(&vd1),
+                    mean(&rms1)
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// ISO 20685-1 pass counts per measurement: name -> (passed, total).
+type Shares = BTreeMap<String, (usize, usize)>;
+
+fn tally(
+    estimator: &Estimator,
+    inputs: &Inputs,
+    settings: &PredictOptions,
+    shares: &mut Shares,
+    refused: &mut Vec<String>,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let est = match estimator.predict(inputs, settings) {
+        Ok(e) => e,
+        Err(e @ (PredictError::Contradiction(_) | PredictError::OutOfRange(_))) => {
+            refused.push(e.to_string());
+            for r in &inputs.readings {
+                shares.entry(r.name.clone()).or_default().1 += 1;
+            }
+            return Ok(());
+        }
+        Err(e) => return Err(e.into()),
+    };
+    for r in &inputs.readings {
+        let j = estimator.set().index_of(&r.name).expect("known");
+        let tol = estimator.set().definitions[j].tolerance.mm();
+        let v = estimator
+            .compiled()
+            .measure_one(j, &est.mesh.vertices)?
+            .value;
+        let e = shares.entry(r.name.clone()).or_default();
+        e.1 += 1;
+        if ((v - r.value.metres) * 1000.0).abs() <= tol {
+            e.0 += 1;
+        }
+    }
+    Ok(())
+}
+
+fn print_shares(title: &str, estimator: &Estimator, shares: &Shares, refused: &[String]) {
+    println!("\n{title}\n");
+    println!("| measurement | ISO tolerance mm | passed | share |");
+    println!("|---|---|---|---|");
+    let (mut p, mut t) = (0, 0);
+    for (name, (ok, n)) in shares {
+        let j = estimator.set().index_of(name).expect("known");
+        println!(
+            "| {name} | {} | {ok}/{n} | {:.1} % |",
+            estimator.set().definitions[j].tolerance.mm(),
+            100.0 * *ok as f64 / *n as f64
+        );
+        p += ok;
+        t += n;
+    }
+    println!(
+        "| **all** | | {p}/{t} | {:.1} % |",
+        100.0 * p as f64 / t.max(1) as f64
+    );
+    if !refused.is_empty() {
+        println!(
+            "\n{} predictions refused by the input checks (counted as failures), e.g.: {}",
+            refused.len(),
+            refused[0]
+        );
+    }
+}
+
+fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let estimator = match arg(args, "--model") {
+        Some(m) => Estimator::load(&PathBuf::from(m))?,
+        None => Estimator::new(
+            Estimator::default_model()?.file().clone(),
+            "embedded default model",
+        )?,
+    };
+    let n: usize = arg(args, "--n").map_or(Ok(50), |s| s.parse())?;
+    let n_ansur: usize = arg(args, "--ansur").map_or(Ok(100), |s| s.parse())?;
+    let n_subsets: usize = arg(args, "--subsets").map_or(Ok(3), |s| s.parse())?;
+    let settings = settings_from_args(args)?;
+    println!(
+        "settings: l = {}, lambda = {}, s = {}, step 1 {:?} weighted {:?}, step-2 weighting {:?}",
+        settings.l,
+        settings.step2.lambda,
+        settings.s,
+        settings.step1.solver,
+        settings.step1.weighting,
+        settings.step2.weighting
+    );
+    let settings = PredictOptions::custom(settings);
+    let heldout = arg(args, "--heldout")
+        .map(|h| Dataset::read(&PathBuf::from(h)))
+        .transpose()?;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+    for set in ["quick", "ansur"] {
+        let names = usable(&estimator, estimator.set_members(set)?);
+        let idx: Vec<usize> = names
+            .iter()
+            .map(|n| estimator.set().index_of(n).expect("member"))
+            .collect();
+        if let Some(h) = &heldout {
+            let (mut full, mut sub, mut rf, mut rs) =
+                (Shares::new(), Shares::new(), vec![], vec![]);
+            for body in h.bodies.iter().take(n) {
+                let truth: Vec<f64> = idx
+                    .iter()
+                    .map(|&j| estimator.compiled().measure_one(j, body).map(|m| m.value))
+                    .collect::<Result<_, _>>()?;
+                let mut inputs = Inputs::new();
+                for (name, v) in names.iter().zip(&truth) {
+                    inputs.insert_metres(name, *v)?;
+                }
+                tally(&estimator, &inputs, &settings, &mut full, &mut rf)?;
+                if set == "quick" {
+                    for _ in 0..n_subsets {
+                        let mut order: Vec<usize> = (0..names.len()).collect();
+                        // `seeded`: the same subsets as the figures of
+                        // docs/results/predict-iso.md, whatever the rand release.
+                        seeded::shuffle(&mut rng, &mut order);
+                        let k = seeded::index_in(&mut rng, 3..names.len());
+                        let mut inputs = Inputs::new();
+                        for &a in &order[..k] {
+                            inputs.insert_metres(&names[a], truth[a])?;
+                        }
+                        tally(&estimator, &inputs, &settings, &mut sub, &mut rs)?;
+                    }
+                }
+            }
+            print_shares(
+                &format!(
+                    "{set}: {} held-out generated bodies, all {} measurements",
+                    n.min(h.len()),
+                    names.len()
+                ),
+                &estimator,
+                &full,
+                &rf,
+            );
+            if set == "quick" {
+                print_shares(
+                    &format!("quick: random subsets (3 to 8 measurements), {n_subsets} per body"),
+                    &estimator,
+                    &sub,
+                    &rs,
+                );
+            }
+        }
+        if n_ansur > 0 {
+            let ansur = Ansur::get()?;
+            let (mut sh, mut rf) = (Shares::new(), vec![]);
+            let mut used = 0;
+            for subject in ansur.subjects(None, Split::Test).take(n_ansur) {
+                let mut inputs = Inputs::new();
+                for name in &names {
+                    let d = &estimator.set().definitions
+                        [estimator.set().index_of(name).expect("member")];
+                    if let Some(v) = d.ansur.as_deref().and_then(|c| subject.dim(c)) {
+                        inputs.insert_metres(name, v)?;
+                    }
+                }
+                used += 1;
+                tally(&estimator, &inputs, &settings, &mut sh, &mut rf)?;
+            }
+            print_shares(&format!("{set}: {used} ANSUR II test-split subjects (ids divisible by 4), their real values as input (a fit check)"), &estimator, &sh, &rf);
+        }
+    }
+    Ok(())
+}
+
+/// Why does a measurement miss its ISO tolerance? For the first `--n`
+/// held-out bodies, predicts from the full `--set` and, for every body with
+/// a failing measurement, prints the report (target, start, step 1, step 2)
+/// and what each L-BFGS run did (iterations, energy, why it stopped).
+fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let estimator = match arg(args, "--model") {
+        Some(m) => Estimator::load(&PathBuf::from(m))?,
+        None => Estimator::new(
+            Estimator::default_model()?.file().clone(),
+            "embedded default model",
+        )?,
+    };
+    let n: usize = arg(args, "--n").map_or(Ok(10), |s| s.parse())?;
+    let set = arg(args, "--set").unwrap_or_else(|| "quick".into());
+    let settings = PredictOptions::custom(settings_from_args(args)?);
+    let names = usable(&estimator, estimator.set_members(&set)?);
+    let idx: Vec<usize> = names
+        .iter()
+        .map(|n| estimator.set().index_of(n).expect("member"))
+        .collect();
+    let only: Option<Vec<usize>> = arg(args, "--bodies")
+        .map(|v| v.split(',').map(|x| x.parse()).collect())
+        .transpose()?;
+    // Inputs: held-out bodies' values (--heldout FILE) or ANSUR II test-split
+    // subjects' real values (--ansur-subjects).
+    let cases: Vec<Vec<Option<f64>>> = if let Some(h) = arg(args, "--heldout") {
+        let heldout = Dataset::read(&PathBuf::from(h))?;
+        heldout
+            .bodies
+            .iter()
+            .take(n)
+            .map(|body| {
+                idx.iter()
+                    .map(|&j| {
+                        estimator
+                            .compiled()
+                            .measure_one(j, body)
+                            .map(|m| Some(m.value))
+                    })
+                    .collect::<Result<_, _>>()
+            })
+            .collect::<Result<_, _>>()?
+    } else {
+        let ansur = Ansur::get()?;
+        ansur
+            .subjects(None, Split::Test)
+            .take(n)
+            .map(|subject| {
+                idx.iter()
+                    .map(|&j| {
+                        estimator.set().definitions[j]
+                            .ansur
+                            .as_deref()
+                            .and_then(|c| subject.dim(c))
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    for (b, case) in cases.iter().enumerate() {
+        if only.as_ref().is_some_and(|o| !o.contains(&b)) {
+            continue;
+        }
+        let mut inputs = Inputs::new();
+        for (name, v) in names.iter().zip(case) {
+            if let Some(v) = v {
+                inputs.insert_metres(name, *v)?;
+            }
+        }
+        let truth: Vec<f64> = case.iter().map(|v| v.unwrap_or(f64::NAN)).collect();
+        let est = estimator.predict(&inputs, &settings)?;
+        let mut failing = Vec::new();
+        for (k, &j) in idx.iter().enumerate() {
+            let tol = estimator.set().definitions[j].tolerance.mm();
+            let v = estimator
+                .compiled()
+                .measure_one(j, &est.mesh.vertices)?
+                .value;
+            let e = (v - truth[k]) * 1000.0;
+            if e.abs() > tol {
+                failing.push(format!("{} {e:+.1} mm (tol {tol})", names[k]));
+            }
+        }
+        let r = &est.report.prediction;
+        println!(
+            "body {b}: {} failing: {}",
+            failing.len(),
+            failing.join(", ")
+        );
+        if !failing.is_empty() || arg(args, "--all").is_some() {
+            for m in &r.measurements {
+                if let (Some(t), Some(s0), Some(s1), Some(s2)) =
+                    (m.target_mm, m.start_mm, m.step1_mm, m.step2_mm)
+                {
+                    println!(
+                        "  {:<28} target {t:8.1}  start {:+7.2}  step1 {:+7.2}  step2 {:+7.2}",
+                        m.name,
+                        s0 - t,
+                        s1 - t,
+                        s2 - t
+                    );
+                }
+            }
+            println!(
+                "  rounds: step 1 {:?}, step 2 {:?}",
+                r.step1_rounds, r.step2_rounds
+            );
+            for (k, run) in r.step1_runs.iter().enumerate() {
+                println!(
+                    "  step1 run {k}: {} it, E {:.3e} -> {:.3e}, {}",
+                    run.iterations, run.cost_start, run.cost_end, run.reason
+                );
+            }
+            for (k, run) in r.step2_runs.iter().enumerate() {
+                println!(
+                    "  step2 run {k}: {} it, E {:.3e} -> {:.3e}, {}",
+                    run.iterations, run.cost_start, run.cost_end, run.reason
+                );
+            }
+            println!(
+                "  time: step1 {:.0} ms, step2 {:.0} ms",
+                r.timings.step1.as_secs_f64() * 1e3,
+                r.timings.step2.as_secs_f64() * 1e3
+            );
+            for w in &r.warnings {
+                println!("  warning: {w}");
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Prediction settings from the flags (defaults: the station's):
+/// `--paper` (start from the paper's exact pipeline), `--l`, `--lambda`,
+/// `--s`, `--gn on|off` (step 1 as the Gauss-Newton MAP, see
+/// `tapeshape_model::map`, or L-BFGS on `E_m`; read first, the other
+/// step-1 flags apply to the solver it picks), `--prior TAU_MM` (the
+/// MAP's reading noise, or the L-BFGS prior), `--w1`/`--w2` (`paper` or
+/// `per-measurement` energy weighting), `--w2-scale W` (step 2's
+/// per-measurement reading weight, default 1e4), `--k1 K` (step 1 moves
+/// the first K components only), `--box on|off`, `--cont N|off`
+/// (continuation rounds), `--budget EVALS` (the continuation's evaluation
+/// budget per step), `--iters1`/`--iters2` (iteration caps).
+fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::error::Error>> {
+    let mut s = if args.iter().any(|a| a == "--paper") {
+        PredictSettings::paper()
+    } else {
+        PredictSettings::default()
+    };
+    if let Some(v) = arg(args, "--l") {
+        s.l = v.parse()?;
+    }
+    if let Some(v) = arg(args, "--lambda") {
+        s.step2.lambda = v.parse()?;
+    }
+    if let Some(v) = arg(args, "--s") {
+        s.s = v.parse()?;
+    }
+    if let Some(v) = arg(args, "--gn") {
+        // Keeps the reading noise / prior the current solver had.
+        let tau = match s.step1.solver {
+            Step1Solver::Lbfgs { prior_mm } => prior_mm,
+            Step1Solver::GaussNewtonMap { tau_mm } => tau_mm,
+        };
+        s.step1.solver = match v.as_str() {
+            "on" => Step1Solver::GaussNewtonMap { tau_mm: tau },
+            "off" => Step1Solver::Lbfgs { prior_mm: tau },
+            _ => return Err(format!("--gn {v}: on or off").into()),
+        };
+    }
+    if let Some(v) = arg(args, "--prior") {
+        let tau = Some(v.parse()?);
+        s.step1.solver = match s.step1.solver {
+            Step1Solver::Lbfgs { .. } => Step1Solver::Lbfgs { prior_mm: tau },
+            Step1Solver::GaussNewtonMap { .. } => Step1Solver::GaussNewtonMap { tau_mm: tau },
+        };
+    }
+    let weighting = |v: &str| match v {
+        "paper" => Ok(EnergyWeighting::Paper),
+        "per-measurement" => Ok(EnergyWeighting::PerMeasurement),
+        _ => Err(format!("weighting {v}: paper or per-measurement")),
+    };
+    if let Some(v) = arg(args, "--w1") {
+        s.step1.weighting = weighting(&v)?;
+    }
+    let scale = arg(args, "--w2-scale").map(|v| v.parse()).transpose()?;
+    let current_scale = match s.step2.weighting {
+        Step2Weighting::PerMeasurement { reading_weight } => reading_weight,
+        Step2Weighting::Paper => 1e4,
+    };
+    if let Some(v) = arg(args, "--w2") {
+        s.step2.weighting = match weighting(&v)? {
+            EnergyWeighting::Paper => Step2Weighting::Paper,
+            EnergyWeighting::PerMeasurement => Step2Weighting::PerMeasurement {
+                reading_weight: scale.unwrap_or(current_scale),
+            },
+        };
+    }
+    if let Some(w) = scale {
+        match &mut s.step2.weighting {
+            Step2Weighting::PerMeasurement { reading_weight } => *reading_weight = w,
+            Step2Weighting::Paper => {
+                return Err(
+                    "--w2-scale needs per-measurement step-2 weighting (--w2 per-measurement)"
+                        .into(),
+                )
+            }
+        }
+    }
+    if let Some(v) = arg(args, "--k1") {
+        s.step1.components = Some(v.parse()?);
+    }
+    if let Some(v) = arg(args, "--box") {
+        s.step1.clamp = if v == "on" {
+            Step1Clamp::InsideBox
+        } else {
+            Step1Clamp::AfterStep
+        };
+    }
+    if let Some(v) = arg(args, "--cont") {
+        s.continuation = match v.as_str() {
+            "off" => None,
+            n => Some(Continuation {
+                max_extra_rounds: n.parse()?,
+                ..Default::default()
+            }),
+        };
+    }
+    if let Some(v) = arg(args, "--budget") {
+        match &mut s.continuation {
+            Some(c) => c.max_evaluations = v.parse()?,
+            None => return Err("--budget needs the continuation (not with --cont off)".into()),
+        }
+    }
+    if let Some(v) = arg(args, "--iters1") {
+        s.step1.stop.max_iters = v.parse()?;
+    }
+    if let Some(v) = arg(args, "--iters2") {
+        s.step2.stop.max_iters = v.parse()?;
+    }
+    Ok(s)
+}

@@ -1,0 +1,213 @@
+//! [`Estimator`]: a trained model with its measurement set compiled for its
+//! template, and the estimate itself (checks, then the model's stages).
+
+use std::sync::{Arc, OnceLock};
+use std::time::Instant;
+
+use tapeshape_measure::{CompiledSet, MeasurementSet};
+use tapeshape_mesh::{Mesh, Topology};
+use tapeshape_model::{
+    Control, ModelError, ModelFile, PredictObserver, PredictProgress, PredictStage, Target,
+};
+
+use crate::checks::RealStats;
+use crate::file::{load_model_bytes, DEFAULT_MODEL};
+use crate::{Estimate, EstimateReport, Inputs, ModelSummary, PredictError, PredictOptions};
+
+/// A trained model with its measurement set compiled for its template:
+/// compiled once, then [`Estimator::predict`] as often as wanted.
+pub struct Estimator {
+    pub(crate) file: ModelFile,
+    pub(crate) source: String,
+    pub(crate) set: MeasurementSet,
+    pub(crate) compiled: CompiledSet,
+    pub(crate) topology: Arc<Topology>,
+    pub(crate) stats: Vec<(f64, f64)>,
+    pub(crate) real: OnceLock<RealStats>,
+}
+
+impl std::fmt::Debug for Estimator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Estimator")
+            .field("source", &self.source)
+            .field("set", &self.set.name)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Estimator {
+    /// Builds an estimator from a model file: parses and compiles its
+    /// measurement set for its template. `source` names it in reports.
+    pub fn new(file: ModelFile, source: &str) -> Result<Self, PredictError> {
+        file.validate()?;
+        let set =
+            MeasurementSet::from_toml_str(&file.measurement_set.text, &file.measurement_set.name)?;
+        let names: Vec<&str> = set.definitions.iter().map(|d| d.name.as_str()).collect();
+        if names
+            != file
+                .model
+                .measurement_names
+                .iter()
+                .map(String::as_str)
+                .collect::<Vec<_>>()
+        {
+            return Err(PredictError::Input(format!(
+                "{source}: the model's measurement names do not match its set definitions; retrain it"
+            )));
+        }
+        let topology = Arc::new(
+            Topology::new(file.template.n_vertices, file.template.faces.clone())
+                .map_err(|e| PredictError::Input(format!("{source}: template topology: {e}")))?,
+        );
+        let compiled = set.compile(&topology, &file.template.anatomy)?;
+        let stats = file.model.measurement_stats();
+        Ok(Self {
+            file,
+            source: source.to_string(),
+            set,
+            compiled,
+            topology,
+            stats,
+            real: OnceLock::new(),
+        })
+    }
+
+    /// Loads a model file (plain or `.gz`).
+    pub fn load(path: &std::path::Path) -> Result<Self, PredictError> {
+        let bytes = std::fs::read(path).map_err(|source| PredictError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let origin = path.display().to_string();
+        Self::new(load_model_bytes(&bytes, &origin)?, &origin)
+    }
+
+    /// The embedded default model (trained on 400 generated bodies with the
+    /// `paper34`, `ansur` and `quick` sets; see `docs/prediction.md`).
+    /// Decompressed and compiled on first use, then shared.
+    pub fn default_model() -> Result<&'static Estimator, PredictError> {
+        static ENGINE: OnceLock<Result<Estimator, String>> = OnceLock::new();
+        ENGINE
+            .get_or_init(|| {
+                load_model_bytes(DEFAULT_MODEL, "embedded default model")
+                    .and_then(|f| Estimator::new(f, "embedded default model"))
+                    .map_err(|e| e.to_string())
+            })
+            .as_ref()
+            .map_err(|e| PredictError::Input(format!("the embedded default model is broken (rebuild it, see docs/prediction.md): {e}")))
+    }
+
+    /// The model file.
+    pub fn file(&self) -> &ModelFile {
+        &self.file
+    }
+
+    /// The union measurement set (the model's order).
+    pub fn set(&self) -> &MeasurementSet {
+        &self.set
+    }
+
+    /// The compiled set (measures meshes of the template).
+    pub fn compiled(&self) -> &CompiledSet {
+        &self.compiled
+    }
+
+    /// The template topology.
+    pub fn topology(&self) -> &Arc<Topology> {
+        &self.topology
+    }
+
+    /// The names of `set` (a built-in set) that this model carries, in the
+    /// set's order; errors if the model lacks any of them.
+    pub fn set_members(&self, set: &str) -> Result<Vec<String>, PredictError> {
+        let ms = MeasurementSet::load(set)?;
+        let mut out = Vec::new();
+        for d in &ms.definitions {
+            if self.set.index_of(&d.name).is_none() {
+                return Err(PredictError::Input(format!(
+                    "the model was not trained with set {set} (it lacks '{}'); its sets: {}",
+                    d.name, self.file.measurement_set.name
+                )));
+            }
+            out.push(d.name.clone());
+        }
+        Ok(out)
+    }
+
+    /// Estimates a body from `inputs` with `options` (the pipeline and the
+    /// paper's l, lambda, s). The options are resolved and the inputs
+    /// checked first ([`Estimator::check`]); the mesh is in the template
+    /// topology, metres, station frame.
+    pub fn predict(
+        &self,
+        inputs: &Inputs,
+        options: &PredictOptions,
+    ) -> Result<Estimate, PredictError> {
+        self.predict_observed(inputs, options, &|_: &PredictProgress| Control::Continue)
+    }
+
+    /// [`Estimator::predict`] with progress reports and cancelling (see
+    /// `tapeshape_model::predict::progress`): `observer` is called once
+    /// before the input checks (stage [`PredictStage::Check`]), then by the
+    /// model at every stage boundary and now and then inside its solvers, on
+    /// this thread. If it answers [`Control::Cancel`], returns
+    /// [`PredictError::Cancelled`] and no body.
+    pub fn predict_observed(
+        &self,
+        inputs: &Inputs,
+        options: &PredictOptions,
+        observer: &dyn PredictObserver,
+    ) -> Result<Estimate, PredictError> {
+        let config = options.resolve()?;
+        if observer.observe(&PredictProgress::at(PredictStage::Check)) == Control::Cancel {
+            return Err(PredictError::Cancelled("before the input checks".into()));
+        }
+        let t0 = Instant::now();
+        let (checks, mut warnings) = self.check(inputs)?;
+        let check_time = t0.elapsed();
+        let mut targets: Vec<Option<Target>> = vec![None; self.set.len()];
+        for r in &inputs.readings {
+            let j = self.set.index_of(&r.name).expect("checked");
+            targets[j] = Some(Target {
+                value: r.value.metres,
+                tolerance: r.tolerance,
+            });
+        }
+        let p = self
+            .file
+            .model
+            .predict_observed(&targets, &self.compiled, &self.topology, &config, observer)
+            .map_err(|e| match e {
+                ModelError::Cancelled(stage) => PredictError::Cancelled(stage),
+                e => PredictError::Model(e),
+            })?;
+        let pl = &p.report.plausibility;
+        if pl.measurements_label == tapeshape_model::PlausibilityLabel::Unusual {
+            warnings.push(format!(
+                "unusual set of measurements (Mahalanobis distance {:.1} over {} readings, {:.1}% of the population is closer to the mean): the result is plausible but check the readings",
+                pl.measurements_mahalanobis,
+                inputs.readings.len(),
+                100.0 * pl.measurements_quantile
+            ));
+        }
+        warnings.extend(p.report.warnings.iter().cloned());
+        let mesh = Mesh::new(p.vertices, self.topology.clone())
+            .map_err(|e| PredictError::Input(format!("building the result mesh: {e}")))?;
+        Ok(Estimate {
+            mesh,
+            report: EstimateReport {
+                model: ModelSummary {
+                    source: self.source.clone(),
+                    sets: self.file.measurement_set.name.clone(),
+                    n_training: self.file.model.n_training,
+                    n_components: self.file.model.n_components(),
+                    n_vertices: self.file.model.n_vertices(),
+                },
+                inputs: checks,
+                prediction: p.report,
+                check_time,
+                warnings,
+            },
+        })
+    }
+}

@@ -1,0 +1,116 @@
+//! What an operator or engineer chooses for an estimate, and how it becomes
+//! the model's configuration.
+//!
+//! Why the facade has its own options: the station and `tapeshape predict`
+//! let people choose the paper's three parameters (`l`, `lambda`, `s`) and
+//! nothing else; experiments choose a whole pipeline. [`PredictOptions`]
+//! records what was chosen (`None`: not said, the pipeline's value) and
+//! [`PredictOptions::resolve`] turns it, once per estimate, into the
+//! model's [`PredictConfig`], refusing values out of range before any
+//! reading is checked.
+
+use serde::{Deserialize, Serialize};
+use tapeshape_model::{PredictConfig, PredictSettings};
+
+use crate::PredictError;
+
+/// Which of the model's pipelines an estimate runs.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub enum Pipeline {
+    /// What the station uses ([`PredictSettings::default`]: the paper's
+    /// parameters with the refinements measured in `docs/prediction.md`).
+    #[default]
+    Station,
+    /// The paper's method exactly ([`PredictSettings::paper`]).
+    Paper,
+    /// Any settings (experiments, e.g. `predict_eval`'s flags).
+    Custom(Box<PredictSettings>),
+}
+
+/// What an operator or engineer chose for an estimate (see the module docs).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PredictOptions {
+    /// The pipeline.
+    pub pipeline: Pipeline,
+    /// Clamp of the normalised PCA weights, in SDs (paper: 3 synthetic, 10
+    /// real); `None`: the pipeline's (3).
+    pub l: Option<f64>,
+    /// Weight of the smoothness energy in step 2, in `[0, 1]` (paper: 0.1);
+    /// `None`: the pipeline's.
+    pub lambda: Option<f64>,
+    /// Rounds of support recomputation per step (paper: 3; 0 = the start
+    /// only); `None`: the pipeline's.
+    pub s: Option<usize>,
+}
+
+impl PredictOptions {
+    /// The paper's method with its parameters.
+    pub fn paper() -> Self {
+        Self {
+            pipeline: Pipeline::Paper,
+            ..Self::default()
+        }
+    }
+
+    /// Exactly `settings` (for experiments).
+    pub fn custom(settings: PredictSettings) -> Self {
+        Self {
+            pipeline: Pipeline::Custom(Box::new(settings)),
+            ..Self::default()
+        }
+    }
+
+    /// The model's settings these options give (what a report records).
+    pub fn settings(&self) -> PredictSettings {
+        let mut s = match &self.pipeline {
+            Pipeline::Station => PredictSettings::default(),
+            Pipeline::Paper => PredictSettings::paper(),
+            Pipeline::Custom(s) => (**s).clone(),
+        };
+        if let Some(l) = self.l {
+            s.l = l;
+        }
+        if let Some(lambda) = self.lambda {
+            s.step2.lambda = lambda;
+        }
+        if let Some(rounds) = self.s {
+            s.s = rounds;
+        }
+        s
+    }
+
+    /// The model's configuration; errors if a value is out of range
+    /// ("lambda must lie in [0, 1], got 2").
+    pub fn resolve(&self) -> Result<PredictConfig, PredictError> {
+        Ok(self.settings().resolve()?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn options_resolve_to_the_pipeline_with_what_was_said() {
+        assert_eq!(
+            PredictOptions::default().settings(),
+            PredictSettings::default()
+        );
+        assert_eq!(PredictOptions::paper().settings(), PredictSettings::paper());
+        let o = PredictOptions {
+            l: Some(10.0),
+            lambda: Some(1.0),
+            s: Some(0),
+            ..PredictOptions::paper()
+        };
+        let s = o.settings();
+        assert_eq!((s.l, s.step2.lambda, s.s), (10.0, 1.0, 0));
+        assert_eq!(s.step1, PredictSettings::paper().step1);
+        let bad = PredictOptions {
+            lambda: Some(2.0),
+            ..PredictOptions::default()
+        };
+        let err = bad.resolve().unwrap_err().to_string();
+        assert!(err.contains("lambda must lie in [0, 1], got 2"), "{err}");
+    }
+}

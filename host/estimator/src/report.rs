@@ -1,0 +1,49 @@
+//! What an estimate returns: the body and its report (the model used, every
+//! reading with its checks, the model's stage report, warnings).
+
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+use tapeshape_mesh::Mesh;
+use tapeshape_model::predict::PredictionReport;
+
+use crate::checks::InputCheck;
+
+/// Summary of the model used.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelSummary {
+    /// Where it came from (embedded default or a path).
+    pub source: String,
+    /// Measurement sets in the model.
+    pub sets: String,
+    /// Training bodies.
+    pub n_training: usize,
+    /// PCA components.
+    pub n_components: usize,
+    /// Template vertices.
+    pub n_vertices: usize,
+}
+
+/// The report of one estimate: inputs, checks, the model's stage report, warnings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EstimateReport {
+    /// The model used.
+    pub model: ModelSummary,
+    /// Every reading with its checks.
+    pub inputs: Vec<InputCheck>,
+    /// Stage values, plausibility and timings (from `tapeshape-model`).
+    pub prediction: PredictionReport,
+    /// Time to check the inputs.
+    pub check_time: Duration,
+    /// Everything the operator should know: input notes and the model's warnings.
+    pub warnings: Vec<String>,
+}
+
+/// A predicted body.
+#[derive(Debug, Clone)]
+pub struct Estimate {
+    /// The body in the template topology (metres, station frame).
+    pub mesh: Mesh,
+    /// The report.
+    pub report: EstimateReport,
+}
