@@ -15,7 +15,8 @@
 //!
 //! Modules: [`db`] (the pool, the schema migrations in `migrations/`, the
 //! head office's commands: stations, users, a customer's export and
-//! erasure, retention), [`apply`] (one batch of a station's events, one
+//! erasure, retention; `db::reads`: what the pages and the lookup read),
+//! [`apply`] (one batch of a station's events, one
 //! transaction), [`server`] (the HTTP API and pages, plain or TLS), [`web`]
 //! (the pages and the vendored three.js viewer), [`pgtest`] (a throwaway
 //! PostgreSQL cluster for tests and benchmarks). `docs/hub.md` has the
