@@ -178,7 +178,7 @@ pub const WIRE_LOGGERS: [&str; 11] = [
 ];
 
 /// Sets up logging to stderr: level from `-v` unless `TAPESHAPE_LOG` is set
-/// (the [`WIRE_LOGGERS`] stay at info either way).
+/// (the [`WIRE_LOGGERS`] never log below info).
 pub fn init_logging(verbose: u8) {
     let default = match verbose {
         0 => "warn",
@@ -190,11 +190,17 @@ pub fn init_logging(verbose: u8) {
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
     // The HTTP, TLS and PostgreSQL libraries trace what goes over the wire
     // (ureq's trace level dumps each request, the station's token in its
-    // Authorization header included): they never log below info, whatever
-    // -v or TAPESHAPE_LOG asks, so that no secret reaches a log.
-    for quiet in WIRE_LOGGERS {
-        if let Ok(d) = format!("{quiet}=info").parse() {
-            filter = filter.add_directive(d);
+    // Authorization header included): when anything is logged below info
+    // (-vv, -vvv or TAPESHAPE_LOG), they stay at info, so that no secret
+    // reaches a log.
+    let below_info = filter
+        .max_level_hint()
+        .is_none_or(|l| l > tracing_subscriber::filter::LevelFilter::INFO);
+    if below_info {
+        for quiet in WIRE_LOGGERS {
+            if let Ok(d) = format!("{quiet}=info").parse() {
+                filter = filter.add_directive(d);
+            }
         }
     }
     // Ignore the error of a second initialisation (tests may call this).

@@ -67,8 +67,8 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         );
     }
     outln!(
-        "the hub holds every event of this station (1 to {}); {} erasures from the hub \
-         carried out here",
+        "the hub holds every event of this station (1 to {}); erasures from the hub \
+         carried out here: {}",
         st.committed_through,
         st.erasures_applied
     )?;
