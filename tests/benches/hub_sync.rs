@@ -33,8 +33,12 @@
 //!
 //! Run (release profile; PostgreSQL must be installed: Debian's
 //! `postgresql`; as root it runs as the `postgres` user):
-//! `cargo bench -p tapeshape-tests --bench hub_sync -- [--rate N] [--seconds S] [--backlog SESSIONS]`
-//! (defaults: 5000 readings/s, 30 s, 100 sessions per station).
+//! `cargo bench -p tapeshape-tests --bench hub_sync -- [--rate N] [--seconds S] [--backlog SESSIONS] [--stations-dir DIR]`
+//! (defaults: 5000 readings/s, 30 s, 100 sessions per station, the station
+//! stores in the system's temporary folder, beside PostgreSQL's cluster).
+//! `--stations-dir /dev/shm` puts the 20 station stores on tmpfs: on one
+//! machine their fsyncs (one per reading) otherwise share one disk with
+//! PostgreSQL's, where real stations each have their own.
 //! Figures: `docs/results/hub-bench.md`.
 
 use std::collections::VecDeque;
@@ -59,6 +63,7 @@ struct Options {
     rate: f64,
     seconds: f64,
     backlog: usize,
+    stations_dir: Option<std::path::PathBuf>,
 }
 
 fn options() -> Options {
@@ -66,6 +71,7 @@ fn options() -> Options {
         rate: 5000.0,
         seconds: 30.0,
         backlog: 100,
+        stations_dir: None,
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
@@ -79,6 +85,9 @@ fn options() -> Options {
             "--rate" => o.rate = value(),
             "--seconds" => o.seconds = value(),
             "--backlog" => o.backlog = value() as usize,
+            "--stations-dir" => {
+                o.stations_dir = Some(args.get(i + 1).expect("--stations-dir DIR").into())
+            }
             // `cargo bench` passes --bench.
             _ => {
                 i += 1;
@@ -209,7 +218,15 @@ fn main() {
             .expect("the hub stopped");
     });
 
-    let work = tempfile::tempdir().unwrap();
+    let work = match &o.stations_dir {
+        Some(d) => tempfile::tempdir_in(d).unwrap(),
+        None => tempfile::tempdir().unwrap(),
+    };
+    println!(
+        "station stores in {} (PostgreSQL in {})",
+        work.path().display(),
+        std::env::temp_dir().display()
+    );
     let stations: Vec<Sessions> = (0..STATIONS)
         .map(|i| Sessions::open(&work.path().join(format!("station-{i:02}"))).unwrap())
         .collect();
