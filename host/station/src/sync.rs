@@ -117,11 +117,16 @@ pub struct SyncConfig {
     pub idle_poll: Duration,
     /// Timeout of one request.
     pub request_timeout: Duration,
+    /// After a change wakes the idle task, how long it waits for more
+    /// before sending: a busy station then sends a batch every `linger`
+    /// instead of one request per reading (each request costs the hub a
+    /// transaction and a commit), for at most this much more lag.
+    pub linger: Duration,
 }
 
 impl SyncConfig {
     /// The defaults for `hub` and `token`: batches of 500 events or 4 MB,
-    /// backoff 0.5 s to 30 s, an idle request every 10 s.
+    /// backoff 0.5 s to 30 s, an idle request every 10 s, 50 ms of linger.
     pub fn new(hub: &str, token: StationToken) -> Result<Self, SyncError> {
         if !(hub.starts_with("http://") || hub.starts_with("https://")) {
             return Err(SyncError::BadUrl(hub.to_string()));
@@ -136,6 +141,7 @@ impl SyncConfig {
             max_backoff: Duration::from_secs(30),
             idle_poll: Duration::from_secs(10),
             request_timeout: Duration::from_secs(30),
+            linger: Duration::from_millis(50),
         })
     }
 }
@@ -428,8 +434,8 @@ impl Task {
                         .map(|t| self.config.idle_poll.saturating_sub(t.elapsed()))
                         .unwrap_or_default();
                     let wait = until_poll.min(Duration::from_millis(500));
-                    if !wait.is_zero() {
-                        self.sessions.wait_for_change(seen, wait);
+                    if !wait.is_zero() && self.sessions.wait_for_change(seen, wait) > seen {
+                        self.sleep(self.config.linger);
                     }
                 }
                 Err(e) => {

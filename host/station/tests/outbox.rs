@@ -176,3 +176,35 @@ fn the_store_and_its_folder_are_owner_only() {
     let _s = Sessions::open(&dir).unwrap();
     assert_eq!(mode(&db), 0o600);
 }
+
+#[test]
+fn the_hub_s_commit_marks_exactly_the_events_it_took() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sessions::open(dir.path()).unwrap();
+    let v = s.start("c-1", "quick", None).unwrap();
+    for k in 0..5 {
+        s.capture_keyboard(v.id, "chest", 9_000 + k).unwrap();
+    }
+    let committed = |s: &Sessions| -> Vec<i64> {
+        s.store()
+            .outbox_after(0, 100)
+            .unwrap()
+            .iter()
+            .filter(|e| e.committed_at_ms.is_some())
+            .map(|e| e.seq)
+            .collect()
+    };
+    assert!(committed(&s).is_empty());
+    s.mark_hub_committed(2).unwrap();
+    assert_eq!(committed(&s), [1, 2]);
+    assert_eq!(s.store().sync_state().unwrap().hub_committed_seq, 2);
+    s.mark_hub_committed(5).unwrap();
+    assert_eq!(committed(&s), [1, 2, 3, 4, 5]);
+    // A hub that holds less than it said (restored from a backup): the
+    // station sends again from there; what was marked stays marked.
+    s.mark_hub_committed(3).unwrap();
+    assert_eq!(s.store().sync_state().unwrap().hub_committed_seq, 3);
+    assert_eq!(committed(&s), [1, 2, 3, 4, 5]);
+    s.mark_hub_committed(6).unwrap();
+    assert_eq!(committed(&s), [1, 2, 3, 4, 5, 6]);
+}

@@ -454,13 +454,22 @@ impl<'a> WriteTx<'a> {
     /// Records that the hub holds events 1 ..= `through`.
     pub fn mark_committed(&self, through: i64) -> Result<(), StoreError> {
         let now = now_ms();
+        let before: i64 = self.tx.query_row(
+            "SELECT hub_committed_seq FROM sync_state WHERE id = 1",
+            [],
+            |r| r.get(0),
+        )?;
         self.tx.execute(
             "UPDATE sync_state SET hub_committed_seq = ?1 WHERE id = 1",
             [through],
         )?;
+        // Only the events newly committed: a range of the primary key, so a
+        // batch costs its own rows, not a scan of the whole outbox (which
+        // grows with every change the station ever made).
         self.tx.execute(
-            "UPDATE outbox SET committed_at_ms = ?2 WHERE seq <= ?1 AND committed_at_ms IS NULL",
-            params![through, now],
+            "UPDATE outbox SET committed_at_ms = ?3
+             WHERE seq > ?1 AND seq <= ?2 AND committed_at_ms IS NULL",
+            params![before, through, now],
         )?;
         Ok(())
     }
