@@ -386,11 +386,19 @@ impl<'a> WriteTx<'a> {
     }
 
     /// The reading that reading `id` superseded (a retake's earlier value), if any.
+    ///
+    /// A retake supersedes a reading of its own session and measurement
+    /// (`insert_reading`), so only those are searched, through the
+    /// `(session_id, measurement)` index: `superseded_by` has no index, and
+    /// a search by it alone read the whole table for every reading stored.
     pub fn superseded_by_reading(&self, id: ReadingId) -> Result<Option<ReadingId>, StoreError> {
         Ok(self
             .tx
             .query_row(
-                "SELECT id FROM readings WHERE superseded_by = ?1 ORDER BY id DESC LIMIT 1",
+                "SELECT o.id FROM readings r JOIN readings o
+                   ON o.session_id = r.session_id AND o.measurement = r.measurement
+                  AND o.superseded_by = r.id
+                 WHERE r.id = ?1 ORDER BY o.id DESC LIMIT 1",
                 [id.0],
                 |r| r.get::<_, i64>(0),
             )
