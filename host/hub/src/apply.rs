@@ -87,6 +87,15 @@ macro_rules! stmt {
     };
 }
 
+/// Serialises, per customer, a session's arrival with that customer's
+/// erasure: without it the two, in concurrent transactions at READ
+/// COMMITTED, miss each other (the erasure's notices do not see the
+/// uncommitted session, the session's guard does not see the uncommitted
+/// erasure) and a late session of an erased customer survives at the hub
+/// and its station. A transaction takes its customers' locks first, in
+/// sorted order, so two batches cannot deadlock on them; PostgreSQL frees
+/// them at commit or rollback.
+const LOCK_CUSTOMER: &str = "SELECT pg_advisory_xact_lock(hashtextextended($1, 0))";
 const CREATE_SESSION: &str =
     "INSERT INTO sessions (station, session, customer, customer_hash, set_name, notes,
         consent, status, created_at_ms, updated_at_ms)
@@ -294,6 +303,7 @@ fn statements(station: &str, e: &Event, out: &mut Vec<Stmt>) -> Result<(), Batch
 /// connection prepares each once (deadpool caches prepared statements per
 /// connection) before its first transaction.
 const ALL_STATEMENTS: &[&str] = &[
+    LOCK_CUSTOMER,
     CREATE_SESSION,
     NOTICE_LATE_ERASURE,
     INSERT_READING,
@@ -342,6 +352,7 @@ pub async fn erase_customer(
     at_ms: i64,
     origin: &str,
 ) -> Result<(u64, u64), HubError> {
+    tx.execute(LOCK_CUSTOMER, &[&customer_hash]).await?;
     let told = tx
         .execute(
             ERASURE_RECORD_AND_NOTICES,
@@ -419,6 +430,21 @@ pub async fn apply_batch(
     let last_seq: i64 = row.get(0);
     let (take, skipped) = continuing(last_seq, &req.events);
     let mut stmts = Vec::new();
+    // The customers whose sessions arrive or who are erased: locked first
+    // (see LOCK_CUSTOMER).
+    let mut customers: Vec<String> = take
+        .iter()
+        .filter_map(|e| match &e.body {
+            EventBody::Created { customer, .. } => Some(tapeshape_hub_api::customer_hash(customer)),
+            EventBody::CustomerErased { customer_hash } => Some(customer_hash.clone()),
+            _ => None,
+        })
+        .collect();
+    customers.sort();
+    customers.dedup();
+    for hash in customers {
+        stmts.push(stmt!(LOCK_CUSTOMER, hash));
+    }
     for e in &take {
         statements(station, e, &mut stmts)?;
     }
