@@ -205,4 +205,10 @@ save 14-exported-again
 keys q
 keys q
 wait_dead
+
+echo "15. everything the program wrote (store, log, exports) is its owner's only"
+[[ -f "$DATA/tapeshape.log" ]] || fail "no log file $DATA/tapeshape.log"
+open=$(find "$DATA" -mindepth 1 \( -type f ! -perm 0600 \) -o \( -type d ! -perm 0700 \) | head -n 5)
+[[ -z "$open" ]] || fail "not owner-only (0600 files, 0700 folders): $(ls -ld $open)"
+echo "owner-only: $(find "$DATA" -mindepth 1 | wc -l) files and folders"
 echo "ok: captures in $OUT"

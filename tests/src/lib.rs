@@ -14,6 +14,8 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+pub mod hub_proxy;
+
 use tapeshape::link::{Link, LinkConfig, LinkCounters, LinkEvent, Naming};
 use tapeshape::session::Sessions;
 use tapeshape::store::{SessionId, Store, StoredReading};

@@ -48,6 +48,13 @@ enum Command {
     /// The paper's experiments moved to `tapeshape-eval`: says how to run them.
     #[command(hide = true)]
     Eval(cli::moved::Args),
+    /// A customer's data at this station: export it, erase it (here and in the chain), look them up.
+    Customer(cli::customer::Args),
+    /// Send this station's unsent changes to the chain's hub and carry out the erasures it sends, then exit.
+    Sync(cli::sync::Args),
+    /// The chain's head-office hub: serve it (PostgreSQL), add stations and users, a customer in the chain.
+    #[cfg(feature = "hub")]
+    Hub(cli::hub::Args),
 }
 
 fn main() -> ExitCode {
@@ -61,6 +68,9 @@ fn main() -> ExitCode {
         }
     };
     cli::init_logging(args.global.verbose);
+    // Everything the program writes may hold customer data (the store, its
+    // exports, cards, logs): owner-only, 0600 files and 0700 folders.
+    rustix::process::umask(rustix::fs::Mode::from_raw_mode(0o077));
     // The embedded model decoded once per machine, kept in the data
     // directory (tapeshape_estimator::cache): a start costs milliseconds.
     if let Ok(dir) = args.global.data_dir() {
@@ -80,6 +90,10 @@ fn main() -> ExitCode {
         Command::Predict(a) => cli::predict::run(a, &args.global),
         Command::Batch(a) => cli::batch::run(a, &args.global),
         Command::Eval(a) => cli::moved::eval(a),
+        Command::Customer(a) => cli::customer::run(a, &args.global),
+        Command::Sync(a) => cli::sync::run(a, &args.global),
+        #[cfg(feature = "hub")]
+        Command::Hub(a) => cli::hub::run(a, &args.global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

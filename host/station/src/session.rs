@@ -11,24 +11,30 @@
 //! station, the demo, the `session` commands) and the link change sessions,
 //! and each change must land in one SQLite transaction with everything it
 //! implies. Each change is one call of `Sessions::change` (private), which owns the
-//! transaction and records what changed as a [`Change`] (in the log today;
-//! the store chain's outbox will write its event in the same transaction
-//! there). Nothing else writes to the store: `crate::store::Store::write`
-//! is private to the crate and only called here.
+//! transaction and records what changed as a [`Change`]: in the log, and as
+//! an event in the outbox, in the same transaction ([`outbox`]), which the
+//! sync task (`crate::sync`) pushes to the chain's hub when the station has
+//! one. So an event exists exactly when its change was committed. Nothing
+//! else writes to the store: `crate::store::Store::write` is private to the
+//! crate and only called here.
 //!
 //! Layer: above the store and the link (it implements the link's
 //! [`ReadingSink`], so the link commits tape readings through it without
 //! knowing it), below the services and the front ends.
 
 use std::path::Path;
+use std::sync::{Arc, Condvar, Mutex};
+use std::time::Duration;
 
 use tapeshape_measure::{MeasureError, MeasurementSet};
 
 use crate::link::ReadingSink;
 use crate::store::{
-    CommitOutcome, DeviceReading, Mark, ReadingId, ReadingSource, Session, SessionId,
+    CommitOutcome, Consent, DeviceReading, Mark, ReadingId, ReadingSource, Session, SessionId,
     SessionStatus, Store, StoreError, StoredEstimate, StoredReading, WriteTx,
 };
+
+pub mod outbox;
 
 /// One change to a session, as the session layer records it.
 #[derive(Clone, Debug, PartialEq)]
@@ -84,6 +90,23 @@ pub enum Change {
     Erased {
         /// The session.
         session: SessionId,
+    },
+    /// A customer asked to be erased here (`tapeshape customer erase`):
+    /// all their sessions were deleted; the hub erases them chain-wide.
+    CustomerErased {
+        /// `tapeshape_hub_api::customer_hash` of their id.
+        customer_hash: String,
+        /// The sessions deleted here.
+        sessions: Vec<SessionId>,
+    },
+    /// The hub told this station that a customer was erased elsewhere in
+    /// the chain: their sessions here were deleted (no event: the hub has
+    /// the erasure already).
+    ErasedByHub {
+        /// `tapeshape_hub_api::customer_hash` of their id.
+        customer_hash: String,
+        /// The sessions deleted here.
+        sessions: Vec<SessionId>,
     },
 }
 
@@ -164,10 +187,20 @@ pub struct ResumeOffer {
 }
 
 /// The session layer's handle: every change to a session goes through it
-/// (see the module docs). Cheap to clone; clones share the store.
+/// (see the module docs). Cheap to clone; clones share the store and the
+/// signal that wakes the sync task.
 #[derive(Clone, Debug)]
 pub struct Sessions {
     store: Store,
+    changed: Arc<ChangeSignal>,
+}
+
+/// Counts committed changes and wakes whoever waits for one (the sync task:
+/// an event is pushed as soon as it is in the outbox, not on the next poll).
+#[derive(Debug, Default)]
+struct ChangeSignal {
+    count: Mutex<u64>,
+    cond: Condvar,
 }
 
 /// The measurements of `set` (a built-in name or a set file).
@@ -190,7 +223,10 @@ pub fn load_set(set: &str) -> Result<Vec<MeasurementInfo>, SessionError> {
 impl Sessions {
     /// The session layer over `store`.
     pub fn new(store: Store) -> Self {
-        Self { store }
+        Self {
+            store,
+            changed: Arc::default(),
+        }
     }
 
     /// Opens the store in `data_dir` (see [`Store::open`]).
@@ -203,18 +239,49 @@ impl Sessions {
         &self.store
     }
 
-    /// Makes one change: runs `f` in one transaction of the store and
-    /// records the [`Change`] it reports (`None`: nothing changed, e.g. a
-    /// retransmitted reading). Every public change below is one call of this.
+    /// Makes one change: runs `f` in one transaction of the store, records
+    /// the [`Change`] it reports (`None`: nothing changed, e.g. a
+    /// retransmitted reading) as an outbox event in the same transaction,
+    /// and logs it. Every public change below is one call of this.
     fn change<T>(
         &self,
         f: impl FnOnce(&WriteTx<'_>) -> Result<(T, Option<Change>), StoreError>,
     ) -> Result<T, StoreError> {
-        let (value, change) = self.store.write(f)?;
+        let (value, change) = self.store.write(|tx| {
+            let (value, change) = f(tx)?;
+            if let Some(c) = &change {
+                outbox::record(tx, c)?;
+            }
+            Ok((value, change))
+        })?;
         if let Some(change) = change {
-            tracing::info!(?change, "session changed");
+            tracing::info!(change = %outbox::describe(&change), "session changed");
+            self.notify();
         }
         Ok(value)
+    }
+
+    fn notify(&self) {
+        let mut n = self.changed.count.lock().unwrap_or_else(|e| e.into_inner());
+        *n += 1;
+        self.changed.cond.notify_all();
+    }
+
+    /// The number of changes committed through this handle (and its clones).
+    pub fn changes(&self) -> u64 {
+        *self.changed.count.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Waits until more than `seen` changes were committed through this
+    /// handle, or `timeout` passed; returns the count.
+    pub fn wait_for_change(&self, seen: u64, timeout: Duration) -> u64 {
+        let n = self.changed.count.lock().unwrap_or_else(|e| e.into_inner());
+        let (n, _) = self
+            .changed
+            .cond
+            .wait_timeout_while(n, timeout, |n| *n <= seen)
+            .unwrap_or_else(|e| e.into_inner());
+        *n
     }
 
     /// Creates an open session for `customer` (opaque text) following
@@ -225,8 +292,19 @@ impl Sessions {
         measurement_set: Option<&str>,
         notes: Option<&str>,
     ) -> Result<Session, StoreError> {
+        self.create_with_consent(customer, measurement_set, notes, None)
+    }
+
+    /// [`Sessions::create`] with the customer's choice about their data.
+    pub fn create_with_consent(
+        &self,
+        customer: &str,
+        measurement_set: Option<&str>,
+        notes: Option<&str>,
+        consent: Option<Consent>,
+    ) -> Result<Session, StoreError> {
         self.change(|tx| {
-            let s = tx.create_session(customer, measurement_set, notes)?;
+            let s = tx.create_session(customer, measurement_set, notes, consent)?;
             let id = s.id;
             Ok((s, Some(Change::Created { session: id })))
         })
@@ -240,8 +318,20 @@ impl Sessions {
         set: &str,
         notes: Option<&str>,
     ) -> Result<SessionView, SessionError> {
+        self.start_with_consent(customer, set, notes, None)
+    }
+
+    /// [`Sessions::start`] with the customer's choice about their data (the
+    /// new-customer screen asks it).
+    pub fn start_with_consent(
+        &self,
+        customer: &str,
+        set: &str,
+        notes: Option<&str>,
+        consent: Option<Consent>,
+    ) -> Result<SessionView, SessionError> {
         let measurements = load_set(set)?;
-        let s = self.create(customer, Some(set), notes)?;
+        let s = self.create_with_consent(customer, Some(set), notes, consent)?;
         Ok(SessionView {
             id: s.id,
             customer: s.customer_id,
@@ -413,6 +503,68 @@ impl Sessions {
             tx.delete_session(id)?;
             Ok(((), Some(Change::Erased { session: id })))
         })
+    }
+
+    /// Erases customer `customer` at this station: deletes every session
+    /// of theirs (readings, marks, estimates) and the content of their
+    /// events still in the outbox, and records the erasure as an event, so
+    /// the hub erases them chain-wide on the next sync. One transaction.
+    /// Returns the sessions deleted (none is not an error: the hub may hold
+    /// sessions of theirs from other stores).
+    pub fn erase_customer(&self, customer: &str) -> Result<Vec<SessionId>, StoreError> {
+        let hash = tapeshape_hub_api::customer_hash(customer);
+        self.change(|tx| {
+            let sessions: Vec<SessionId> = tx
+                .session_customers()?
+                .into_iter()
+                .filter(|(_, c)| c == customer)
+                .map(|(id, _)| id)
+                .collect();
+            for id in &sessions {
+                tx.delete_session(*id)?;
+            }
+            let change = Change::CustomerErased {
+                customer_hash: hash,
+                sessions: sessions.clone(),
+            };
+            Ok((sessions, Some(change)))
+        })
+    }
+
+    /// Carries out an erasure the hub asked for: deletes every session
+    /// whose customer id has `customer_hash` (and their outbox content).
+    /// Doing it twice deletes nothing the second time.
+    pub fn apply_hub_erasure(&self, customer_hash: &str) -> Result<Vec<SessionId>, StoreError> {
+        self.change(|tx| {
+            let sessions: Vec<SessionId> = tx
+                .session_customers()?
+                .into_iter()
+                .filter(|(_, c)| tapeshape_hub_api::customer_hash(c) == customer_hash)
+                .map(|(id, _)| id)
+                .collect();
+            for id in &sessions {
+                tx.delete_session(*id)?;
+            }
+            let change = (!sessions.is_empty()).then(|| Change::ErasedByHub {
+                customer_hash: customer_hash.to_string(),
+                sessions: sessions.clone(),
+            });
+            Ok((sessions, change))
+        })
+    }
+
+    /// Records that the hub holds this station's events 1 ..= `through`
+    /// (the sync task, after the hub's answer). Sync bookkeeping, not a
+    /// change to a session: no event.
+    pub fn mark_hub_committed(&self, through: i64) -> Result<(), StoreError> {
+        self.store.write(|tx| tx.mark_committed(through))
+    }
+
+    /// Binds this store to the hub's station `name` the first time; returns
+    /// the name the store belongs to (another name: the token is for
+    /// another station than this store's).
+    pub fn bind_station(&self, name: &str) -> Result<String, StoreError> {
+        self.store.write(|tx| tx.bind_station(name))
     }
 
     /// Stores `estimate` as its session's estimate (replacing an earlier one).

@@ -26,6 +26,7 @@ fn answer(fx: Vec<Effect>, seq: &mut u32, log: &mut Vec<Effect>) -> Vec<Event> {
                 customer,
                 set,
                 notes,
+                ..
             } => out.push(Event::SessionReady(SessionView {
                 id: SessionId(1),
                 customer,

@@ -326,6 +326,7 @@ fn summaries() -> Vec<SessionSummary> {
             status,
             measurement_set: Some("quick".into()),
             notes: None,
+            consent: None,
         },
         current_readings: n,
         total_readings: n + 1,

@@ -6,7 +6,7 @@ mod tui_fixture;
 
 use crossterm::event::KeyCode;
 use tapeshape::services::{EstimateEvent, Stage};
-use tapeshape::store::{Mark, ReadingId, SessionId, SessionStatus};
+use tapeshape::store::{Consent, Mark, ReadingId, SessionId, SessionStatus};
 use tapeshape::tui::app::{Effect, Event, ItemState, Screen};
 use tapeshape::tui::ShowLength as _;
 use tapeshape_estimator::Unit;
@@ -38,7 +38,8 @@ fn a_new_customer_form_creates_a_session_with_the_chosen_set_and_notes() {
                 customer,
                 set,
                 notes,
-            } => Some((customer.clone(), set.clone(), notes.clone())),
+                consent,
+            } => Some((customer.clone(), set.clone(), notes.clone(), *consent)),
             _ => None,
         })
         .expect("Enter creates a session");
@@ -48,6 +49,47 @@ fn a_new_customer_form_creates_a_session_with_the_chosen_set_and_notes() {
     );
     assert_eq!(create.1, "ansur");
     assert_eq!(create.2.as_deref(), Some("sex: female, age: 34"));
+    // Not asked otherwise: this visit only (the chain keeps nothing past its
+    // retention unless the customer chooses to).
+    assert_eq!(create.3, Consent::Visit);
+}
+
+#[test]
+fn the_customer_chooses_to_keep_their_data_on_the_form() {
+    let consent_of = |keys: Vec<Event>| {
+        let mut a = app(false);
+        let fx = send(&mut a, keys);
+        fx.iter()
+            .find_map(|e| match e {
+                Effect::CreateSession { consent, .. } => Some(*consent),
+                _ => None,
+            })
+            .expect("Enter creates a session")
+    };
+    // Sex, age, set, then the data choice (the last field): k keeps.
+    let to_consent = || vec![key(KeyCode::Down); 3];
+    let with = |extra: &[Event]| {
+        let mut k = to_consent();
+        k.extend_from_slice(extra);
+        k.push(key(KeyCode::Enter));
+        k
+    };
+    assert_eq!(consent_of(with(&[ch('k')])), Consent::Keep);
+    assert_eq!(consent_of(with(&[key(KeyCode::Right)])), Consent::Keep);
+    assert_eq!(
+        consent_of(with(&[ch('k'), ch('v')])),
+        Consent::Visit,
+        "v takes the choice back"
+    );
+    assert_eq!(
+        consent_of(with(&[key(KeyCode::Right), key(KeyCode::Left)])),
+        Consent::Visit
+    );
+    // k elsewhere (typed into the customer id) does not choose.
+    assert_eq!(
+        consent_of(vec![key(KeyCode::Up), ch('k'), key(KeyCode::Enter)]),
+        Consent::Visit
+    );
 }
 
 #[test]
@@ -475,6 +517,7 @@ fn history_rows() -> Vec<tapeshape::store::SessionSummary> {
             status: SessionStatus::Done,
             measurement_set: Some("quick".into()),
             notes: None,
+            consent: None,
         },
         current_readings: 1,
         total_readings: 1,

@@ -77,6 +77,10 @@ pub struct Args {
     /// tolerances.
     #[arg(long, value_name = "MM")]
     pub reading_tolerance: Option<f64>,
+
+    /// Syncing the demo's sessions to a chain's hub (none by default).
+    #[command(flatten)]
+    pub hub: crate::cli::HubArgs,
 }
 
 /// Runs the demo. The session goes to the data directory if one is given
@@ -106,13 +110,27 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     use std::io::IsTerminal as _;
     let interactive =
         !args.headless && std::io::stdout().is_terminal() && std::io::stdin().is_terminal();
-    if interactive {
-        return run_interactive(&args, global, sessions, temp.as_ref().map(|t| t.path()));
-    }
-    let (script, customer) = demo_script(&set, args.seed)?;
+    let sync = args.hub.start(&sessions)?;
+    let result = if interactive {
+        run_interactive(&args, global, sessions, temp.as_ref().map(|t| t.path()))
+    } else {
+        run_headless(&args, &set, sessions)
+    };
+    crate::cli::finish_sync(sync, Duration::from_secs(10));
+    result
+}
+
+/// The demo without an interface: records one session from the simulated
+/// tape, prints it and estimates it.
+fn run_headless(
+    args: &Args,
+    set: &tapeshape_measure::MeasurementSet,
+    sessions: Sessions,
+) -> anyhow::Result<()> {
+    let (script, customer) = demo_script(set, args.seed)?;
     // Synthetic lengths (a set without ANSUR columns) are not a body: the
     // estimate may refuse them, which is then reported, not an error.
-    let real_customer = demo_customer(&set, args.seed)?.sex.is_some();
+    let real_customer = demo_customer(set, args.seed)?.sex.is_some();
     outln!("demo customer: {customer}")?;
     let session = sessions.create(&format!("demo-{}", args.seed), Some(&set.name), None)?;
     let plan = plan(&sessions, &session, &[])?;

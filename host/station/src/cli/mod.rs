@@ -43,15 +43,19 @@ macro_rules! outln {
 }
 
 pub mod batch;
+pub mod customer;
 pub mod dataset;
 #[cfg(feature = "demo")]
 pub mod demo;
+#[cfg(feature = "hub")]
+pub mod hub;
 pub mod measure;
 pub mod moved;
 pub mod predict;
 pub mod session;
 pub mod sessions;
 pub mod station;
+pub mod sync;
 pub mod train;
 
 /// Options every subcommand takes.
@@ -86,7 +90,96 @@ impl Global {
     }
 }
 
-/// Sets up logging to stderr: level from `-v` unless `TAPESHAPE_LOG` is set.
+/// Options of the front ends that sync to the chain's hub (`station`,
+/// `demo`). Without `--hub` nothing is sent anywhere (the outbox is kept,
+/// so a station can join a chain later with its history).
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct HubArgs {
+    /// The chain's head-office hub to sync this station's sessions to
+    /// (http://HOST:PORT or https://HOST:PORT); needs --station-token.
+    #[arg(long, value_name = "URL", requires = "station_token")]
+    pub hub: Option<String>,
+
+    /// File holding this station's token (`tapeshape hub add-station NAME`
+    /// prints it; keep the file owner-only).
+    #[arg(long, value_name = "FILE", requires = "hub")]
+    pub station_token: Option<PathBuf>,
+
+    /// PEM file with the certificate of the CA that signed the hub's TLS
+    /// certificate (a private CA or a self-signed hub), instead of the
+    /// public web's roots.
+    #[arg(long, value_name = "FILE", requires = "hub")]
+    pub hub_ca: Option<PathBuf>,
+}
+
+impl HubArgs {
+    /// The sync settings, if a hub is given.
+    pub fn config(&self) -> anyhow::Result<Option<crate::sync::SyncConfig>> {
+        let (Some(hub), Some(token)) = (&self.hub, &self.station_token) else {
+            return Ok(None);
+        };
+        let token = crate::sync::read_token(token)?;
+        let mut config = crate::sync::SyncConfig::new(hub, token)?;
+        if let Some(ca) = &self.hub_ca {
+            config.ca_pem =
+                Some(std::fs::read(ca).with_context(|| {
+                    format!("reading the hub's CA certificate {}", ca.display())
+                })?);
+        }
+        Ok(Some(config))
+    }
+
+    /// Starts the sync task for `sessions` if a hub is given.
+    pub fn start(&self, sessions: &Sessions) -> anyhow::Result<Option<crate::sync::SyncHandle>> {
+        let Some(config) = self.config()? else {
+            return Ok(None);
+        };
+        let hub = config.hub.clone();
+        let glb: crate::sync::GlbSource = std::sync::Arc::new(crate::services::station::glb_of);
+        let handle = crate::sync::spawn(sessions.clone(), config, glb)
+            .with_context(|| format!("starting the sync with the hub {hub}"))?;
+        tracing::info!(%hub, "syncing with the hub");
+        Ok(Some(handle))
+    }
+}
+
+/// Stops a sync task after giving it up to `wait` to send what is left;
+/// says on stderr if something is still unsent (it goes on the next start).
+pub fn finish_sync(sync: Option<crate::sync::SyncHandle>, wait: std::time::Duration) {
+    let Some(sync) = sync else { return };
+    let synced = sync.wait_synced(wait);
+    let st = sync.status();
+    if !synced {
+        eprintln!(
+            "the hub holds this station's events up to {} of {}; the rest is sent on the next start with --hub{}",
+            st.committed_through,
+            st.last_seq,
+            st.last_error
+                .map(|e| format!(" (last error: {e})"))
+                .unwrap_or_default()
+        );
+    }
+    sync.stop();
+}
+
+/// Libraries that see requests, headers or connection strings: capped at
+/// info by [`init_logging`].
+pub const WIRE_LOGGERS: [&str; 11] = [
+    "ureq",
+    "ureq_proto",
+    "rustls",
+    "hyper",
+    "hyper_util",
+    "h2",
+    "axum",
+    "axum_server",
+    "tower_http",
+    "tokio_postgres",
+    "postgres_protocol",
+];
+
+/// Sets up logging to stderr: level from `-v` unless `TAPESHAPE_LOG` is set
+/// (the [`WIRE_LOGGERS`] never log below info).
 pub fn init_logging(verbose: u8) {
     let default = match verbose {
         0 => "warn",
@@ -94,8 +187,23 @@ pub fn init_logging(verbose: u8) {
         2 => "debug",
         _ => "trace",
     };
-    let filter = tracing_subscriber::EnvFilter::try_from_env("TAPESHAPE_LOG")
+    let mut filter = tracing_subscriber::EnvFilter::try_from_env("TAPESHAPE_LOG")
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    // The HTTP, TLS and PostgreSQL libraries trace what goes over the wire
+    // (ureq's trace level dumps each request, the station's token in its
+    // Authorization header included): when anything is logged below info
+    // (-vv, -vvv or TAPESHAPE_LOG), they stay at info, so that no secret
+    // reaches a log.
+    let below_info = filter
+        .max_level_hint()
+        .is_none_or(|l| l > tracing_subscriber::filter::LevelFilter::INFO);
+    if below_info {
+        for quiet in WIRE_LOGGERS {
+            if let Ok(d) = format!("{quiet}=info").parse() {
+                filter = filter.add_directive(d);
+            }
+        }
+    }
     // Ignore the error of a second initialisation (tests may call this).
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)

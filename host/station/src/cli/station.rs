@@ -86,6 +86,16 @@ pub struct Args {
     /// tolerances.
     #[arg(long, value_name = "MM")]
     pub reading_tolerance: Option<f64>,
+
+    /// Line mode: the new customer's choice about their data: keep (keep my
+    /// data) or visit (this visit only). The interface asks it on the new
+    /// customer screen.
+    #[arg(long, value_name = "CHOICE")]
+    pub consent: Option<crate::store::Consent>,
+
+    /// Syncing to the chain's hub.
+    #[command(flatten)]
+    pub hub: crate::cli::HubArgs,
 }
 
 /// Is the line mode asked for (a session named on the command line)?
@@ -122,6 +132,7 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         None => "quick".to_string(),
     };
     let sessions = global.open_sessions()?;
+    let sync = args.hub.start(&sessions)?;
     let data_dir = global.data_dir()?;
     let export_dir = match args.export_dir {
         Some(d) => d,
@@ -155,7 +166,9 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         default_set,
         demo: None,
     };
-    crate::tui::runner::run_with_log(options, services, &runtime)
+    let result = crate::tui::runner::run_with_log(options, services, &runtime);
+    crate::cli::finish_sync(sync, Duration::from_secs(5));
+    result
 }
 
 /// Runs the station until Ctrl-C (or completion with
@@ -172,6 +185,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         );
     }
     let sessions = global.open_sessions()?;
+    let sync = args.hub.start(&sessions)?;
     let session = choose_session(&sessions, &args)?;
     let plan = plan(&sessions, &session, &args.measurements)?;
     outln!(
@@ -199,7 +213,9 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         live: args.live,
         exit_when_complete: args.exit_when_complete,
     };
-    runtime.block_on(record(options, sessions, session.id, plan))
+    let result = runtime.block_on(record(options, sessions, session.id, plan));
+    crate::cli::finish_sync(sync, Duration::from_secs(5));
+    result
 }
 
 /// One measurement still to take: its name and what to tell the operator.
@@ -277,7 +293,12 @@ fn choose_session(sessions: &Sessions, args: &Args) -> anyhow::Result<Session> {
             // Refuse an unknown set before creating the session.
             tapeshape_measure::MeasurementSet::load(set)?;
         }
-        return Ok(sessions.create(customer, args.measurement_set.as_deref(), None)?);
+        return Ok(sessions.create_with_consent(
+            customer,
+            args.measurement_set.as_deref(),
+            None,
+            args.consent,
+        )?);
     }
     if args.measurement_set.is_some() {
         bail!("--set applies to a new session (--customer); a resumed session keeps its own set");

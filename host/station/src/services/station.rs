@@ -52,6 +52,18 @@ impl StationServices {
     }
 }
 
+/// The body of a stored estimate as binary glTF (Y up, metres), for the
+/// chain's hub and its 3D viewer; `None` if it is not on the default
+/// model's template (or the model cannot be loaded).
+pub fn glb_of(stored: &StoredEstimate) -> Option<Vec<u8>> {
+    let estimator = estimator().ok()?;
+    if stored.template_sha256 != default_template_sha256(estimator) {
+        return None;
+    }
+    let mesh = Mesh::new(stored.vertices.clone(), estimator.topology().clone()).ok()?;
+    tapeshape_mesh::io::glb_bytes(&mesh, "body").ok()
+}
+
 /// `--reading-tolerance MM` is not a sensible number of millimetres.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error(

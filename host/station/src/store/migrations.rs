@@ -46,6 +46,7 @@ pub const MIGRATIONS: &[Migration] = &[
     migration!("0002_withdrawn_readings_and_marks.sql"),
     migration!("0003_reading_source.sql"),
     migration!("0004_estimates.sql"),
+    migration!("0005_outbox_and_consent.sql"),
 ];
 
 /// The schema version this build writes (the number of migrations).
@@ -137,7 +138,15 @@ mod tests {
             .pragma_query_value(None, "user_version", |r| r.get(0))
             .unwrap();
         assert_eq!(v, current_version());
-        for table in ["sessions", "readings", "link_state", "marks", "estimates"] {
+        for table in [
+            "sessions",
+            "readings",
+            "link_state",
+            "marks",
+            "estimates",
+            "outbox",
+            "sync_state",
+        ] {
             let n: i64 = conn
                 .query_row(
                     "SELECT COUNT(*) FROM sqlite_schema WHERE type = 'table' AND name = ?1",

@@ -50,9 +50,9 @@ mod write;
 
 pub use migrations::{Migration, MIGRATIONS};
 pub use types::{
-    decode_vertices, encode_vertices, CommitOutcome, DeviceReading, Mark, ReadingId, ReadingSource,
-    Session, SessionDetail, SessionId, SessionStatus, SessionSummary, StoredEstimate,
-    StoredReading, TapeOrigin, UnknownStatus, VERTEX_BYTES,
+    decode_vertices, encode_vertices, CommitOutcome, Consent, DeviceReading, Mark, ReadingId,
+    ReadingSource, Session, SessionDetail, SessionId, SessionStatus, SessionSummary,
+    StoredEstimate, StoredReading, TapeOrigin, UnknownStatus, VERTEX_BYTES,
 };
 pub(crate) use write::WriteTx;
 
@@ -190,6 +190,34 @@ impl From<rusqlite::Error> for StoreError {
     }
 }
 
+/// One event of the outbox (migration 0005 describes the columns).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OutboxEvent {
+    /// The station's sequence number (1, 2, ...).
+    pub seq: i64,
+    /// The session it concerns (`None`: a customer's erasure, or redacted).
+    pub session: Option<SessionId>,
+    /// When the change was committed, ms since the Unix epoch.
+    pub at_ms: i64,
+    /// Its kind (`created`, `reading_stored`, ..., `redacted`).
+    pub kind: String,
+    /// The event as JSON (`tapeshape_hub_api::EventBody`).
+    pub body: String,
+    /// When the hub answered that it committed it.
+    pub committed_at_ms: Option<i64>,
+}
+
+/// The station's sync bookkeeping.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SyncState {
+    /// The station's name at the hub (set by the first start with a token).
+    pub station: Option<String>,
+    /// The hub holds events 1 ..= this.
+    pub hub_committed_seq: i64,
+    /// The last event written (0: none).
+    pub last_seq: i64,
+}
+
 /// Handle to the session database. Cheap to clone; all clones share one
 /// connection. See the module docs for the durability rules.
 #[derive(Clone)]
@@ -234,7 +262,7 @@ pub(crate) fn valid_text(s: &str, max: usize) -> bool {
 }
 
 const SESSION_COLS: &str =
-    "id, customer_id, created_at_ms, updated_at_ms, status, measurement_set, notes";
+    "id, customer_id, created_at_ms, updated_at_ms, status, measurement_set, notes, consent";
 const READING_COLS: &str = "id, session_id, measurement, value_tenth_mm, source, device_id, \
      boot_id, seq, device_time_ms, received_at_ms, superseded_by, withdrawn_at_ms";
 
@@ -247,6 +275,7 @@ fn session_from_row(row: &rusqlite::Row<'_>) -> rusqlite::Result<Session> {
         status: row.get(4)?,
         measurement_set: row.get(5)?,
         notes: row.get(6)?,
+        consent: row.get(7)?,
     })
 }
 
@@ -279,12 +308,27 @@ impl Store {
     /// Opens (creating if needed) the session database in `data_dir`,
     /// creating the directory and applying pending migrations.
     pub fn open(data_dir: &Path) -> Result<Store, StoreError> {
-        std::fs::create_dir_all(data_dir).map_err(|error| StoreError::CreateDataDir {
+        // Owner-only: the folder and every file of the store hold customer
+        // data (a folder made here is 0700; the database and its -wal and
+        // -shm files are 0600, which SQLite copies from the database file
+        // to the files it makes beside it).
+        {
+            use std::os::unix::fs::DirBuilderExt as _;
+            std::fs::DirBuilder::new()
+                .recursive(true)
+                .mode(0o700)
+                .create(data_dir)
+                .map_err(|error| StoreError::CreateDataDir {
+                    path: data_dir.to_path_buf(),
+                    error,
+                })?;
+        }
+        check_writable(data_dir)?;
+        let path = data_dir.join(DB_FILE_NAME);
+        owner_only(&path, true).map_err(|error| StoreError::DataDirNotWritable {
             path: data_dir.to_path_buf(),
             error,
         })?;
-        check_writable(data_dir)?;
-        let path = data_dir.join(DB_FILE_NAME);
         let open_err = |error| StoreError::Open {
             path: path.clone(),
             error,
@@ -304,6 +348,13 @@ impl Store {
         conn.pragma_update(None, "synchronous", "FULL")
             .map_err(open_err)?;
         migrations::migrate(&mut conn, &path)?;
+        // A store made by an older tapeshape (0644): its files become
+        // owner-only too.
+        for suffix in ["-wal", "-shm", "-journal"] {
+            let mut p = path.clone().into_os_string();
+            p.push(suffix);
+            let _ = owner_only(Path::new(&p), false);
+        }
         Ok(Store {
             conn: Arc::new(Mutex::new(conn)),
             path,
@@ -366,9 +417,9 @@ impl Store {
         let rows = stmt.query_map([], |row| {
             Ok(SessionSummary {
                 session: session_from_row(row)?,
-                current_readings: u64::try_from(row.get::<_, i64>(7)?).unwrap_or(0),
-                total_readings: u64::try_from(row.get::<_, i64>(8)?).unwrap_or(0),
-                estimate_made_at_ms: row.get(9)?,
+                current_readings: u64::try_from(row.get::<_, i64>(8)?).unwrap_or(0),
+                total_readings: u64::try_from(row.get::<_, i64>(9)?).unwrap_or(0),
+                estimate_made_at_ms: row.get(10)?,
             })
         })?;
         Ok(rows.collect::<Result<Vec<_>, _>>()?)
@@ -487,6 +538,57 @@ impl Store {
             report_json: report,
         }))
     }
+
+    /// Outbox events after `after` (their `seq` greater), oldest first, at
+    /// most `limit`: what the sync task sends next.
+    pub fn outbox_after(&self, after: i64, limit: usize) -> Result<Vec<OutboxEvent>, StoreError> {
+        let conn = self.lock();
+        let mut stmt = conn.prepare(
+            "SELECT seq, session_id, at_ms, kind, body, committed_at_ms FROM outbox
+             WHERE seq > ?1 ORDER BY seq LIMIT ?2",
+        )?;
+        let rows = stmt.query_map(
+            params![after, i64::try_from(limit).unwrap_or(i64::MAX)],
+            |r| {
+                Ok(OutboxEvent {
+                    seq: r.get(0)?,
+                    session: r.get::<_, Option<i64>>(1)?.map(SessionId),
+                    at_ms: r.get(2)?,
+                    kind: r.get(3)?,
+                    body: r.get(4)?,
+                    committed_at_ms: r.get(5)?,
+                })
+            },
+        )?;
+        Ok(rows.collect::<Result<Vec<_>, _>>()?)
+    }
+
+    /// The station's sync bookkeeping.
+    pub fn sync_state(&self) -> Result<SyncState, StoreError> {
+        let conn = self.lock();
+        let (station, committed): (Option<String>, i64) = conn.query_row(
+            "SELECT station, hub_committed_seq FROM sync_state WHERE id = 1",
+            [],
+            |r| Ok((r.get(0)?, r.get(1)?)),
+        )?;
+        let last: i64 =
+            conn.query_row("SELECT COALESCE(MAX(seq), 0) FROM outbox", [], |r| r.get(0))?;
+        Ok(SyncState {
+            station,
+            hub_committed_seq: committed,
+            last_seq: last,
+        })
+    }
+
+    /// The sessions of `customer` (exactly this id), oldest first.
+    pub fn customer_sessions(&self, customer: &str) -> Result<Vec<Session>, StoreError> {
+        let conn = self.lock();
+        let mut stmt = conn.prepare(&format!(
+            "SELECT {SESSION_COLS} FROM sessions WHERE customer_id = ?1 ORDER BY created_at_ms, id"
+        ))?;
+        let rows = stmt.query_map([customer], session_from_row)?;
+        Ok(rows.collect::<Result<Vec<_>, _>>()?)
+    }
 }
 
 fn session_header(conn: &Connection, id: SessionId) -> Result<Session, StoreError> {
@@ -497,6 +599,28 @@ fn session_header(conn: &Connection, id: SessionId) -> Result<Session, StoreErro
     )
     .optional()?
     .ok_or(StoreError::NoSuchSession(id))
+}
+
+/// Makes `path` readable and writable by its owner only (0600); with
+/// `create`, creates it (empty, 0600) if it is missing. A missing file
+/// without `create` is left missing.
+pub fn owner_only(path: &Path, create: bool) -> std::io::Result<()> {
+    use std::os::unix::fs::{OpenOptionsExt as _, PermissionsExt as _};
+    if create {
+        std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .mode(0o600)
+            .open(path)?;
+    }
+    match std::fs::metadata(path) {
+        Ok(m) if m.permissions().mode() & 0o077 != 0 => {
+            std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o600))
+        }
+        Ok(_) => Ok(()),
+        Err(e) if !create && e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e),
+    }
 }
 
 /// Creates and removes a probe file so that an unwritable data directory is

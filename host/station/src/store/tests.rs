@@ -23,7 +23,7 @@ trait Writes {
 
 impl Writes for Store {
     fn create_session(&self, customer: &str, set: Option<&str>) -> Result<Session, StoreError> {
-        self.write(|tx| tx.create_session(customer, set, None))
+        self.write(|tx| tx.create_session(customer, set, None, None))
     }
     fn commit_reading(
         &self,
@@ -389,7 +389,7 @@ fn session_lifecycle() {
             .unwrap(),
     );
     let noted = store
-        .write(|tx| tx.create_session("N", None, Some("left early")))
+        .write(|tx| tx.create_session("N", None, Some("left early"), None))
         .unwrap();
     assert_eq!(
         store.session(noted.id).unwrap().notes.as_deref(),

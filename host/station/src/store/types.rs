@@ -149,6 +149,59 @@ impl FromSql for Mark {
     }
 }
 
+/// What the customer chose on the new-customer screen about their data.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Consent {
+    /// "Keep my data": the chain keeps the customer's sessions until they
+    /// ask for them to be erased.
+    Keep,
+    /// "This visit only": the hub's retention purges the session after its
+    /// `--retain-days`.
+    Visit,
+}
+
+impl Consent {
+    /// The word stored in the database (`keep`, `visit`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Consent::Keep => "keep",
+            Consent::Visit => "visit",
+        }
+    }
+
+    /// The operator's words for it.
+    pub fn label(self) -> &'static str {
+        match self {
+            Consent::Keep => "keep my data",
+            Consent::Visit => "this visit only",
+        }
+    }
+}
+
+impl std::str::FromStr for Consent {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "keep" => Ok(Consent::Keep),
+            "visit" => Ok(Consent::Visit),
+            other => Err(format!("unknown consent {other:?}: use keep or visit")),
+        }
+    }
+}
+
+impl ToSql for Consent {
+    fn to_sql(&self) -> rusqlite::Result<ToSqlOutput<'_>> {
+        Ok(self.as_str().into())
+    }
+}
+
+impl FromSql for Consent {
+    fn column_result(value: ValueRef<'_>) -> FromSqlResult<Self> {
+        let s = value.as_str()?;
+        s.parse().map_err(|_| unknown("consent", s))
+    }
+}
+
 /// A session's header row.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Session {
@@ -166,6 +219,8 @@ pub struct Session {
     pub measurement_set: Option<String>,
     /// Free operator notes.
     pub notes: Option<String>,
+    /// The customer's choice about their data (`None`: not asked).
+    pub consent: Option<Consent>,
 }
 
 /// A session with reading counts, for listings.

@@ -12,7 +12,7 @@ use rusqlite::{params, OptionalExtension, Transaction};
 
 use super::types::{device_id_to_sql, SourceKind};
 use super::{
-    encode_vertices, now_ms, valid_text, CommitOutcome, DeviceReading, Mark, ReadingId,
+    encode_vertices, now_ms, valid_text, CommitOutcome, Consent, DeviceReading, Mark, ReadingId,
     ReadingSource, Session, SessionId, SessionStatus, StoreError, StoredEstimate, StoredReading,
     TapeOrigin, FIRST_SEQ, MAX_CUSTOMER_ID_LEN, MAX_MEASUREMENT_NAME_LEN,
 };
@@ -35,15 +35,17 @@ impl<'a> WriteTx<'a> {
         customer_id: &str,
         measurement_set: Option<&str>,
         notes: Option<&str>,
+        consent: Option<Consent>,
     ) -> Result<Session, StoreError> {
         if !valid_text(customer_id, MAX_CUSTOMER_ID_LEN) {
             return Err(StoreError::InvalidCustomerId(customer_id.to_owned()));
         }
         let now = now_ms();
         self.tx.execute(
-            "INSERT INTO sessions (customer_id, created_at_ms, updated_at_ms, status, measurement_set, notes)
-             VALUES (?1, ?2, ?2, ?3, ?4, ?5)",
-            params![customer_id, now, SessionStatus::Open, measurement_set, notes],
+            "INSERT INTO sessions (customer_id, created_at_ms, updated_at_ms, status, measurement_set,
+                                   notes, consent)
+             VALUES (?1, ?2, ?2, ?3, ?4, ?5, ?6)",
+            params![customer_id, now, SessionStatus::Open, measurement_set, notes, consent],
         )?;
         super::session_header(self.tx, SessionId(self.tx.last_insert_rowid()))
     }
@@ -364,5 +366,133 @@ impl<'a> WriteTx<'a> {
             ],
         )?;
         Ok(())
+    }
+
+    /// The header of session `id`, inside this transaction.
+    pub fn session(&self, id: SessionId) -> Result<Session, StoreError> {
+        super::session_header(self.tx, id)
+    }
+
+    /// Reading `id` as stored, inside this transaction.
+    pub fn reading(&self, id: ReadingId) -> Result<StoredReading, StoreError> {
+        self.tx
+            .query_row(
+                &format!("SELECT {} FROM readings WHERE id = ?1", super::READING_COLS),
+                [id.0],
+                super::reading_from_row,
+            )
+            .optional()?
+            .ok_or(StoreError::NoSuchReading(id))
+    }
+
+    /// The reading that reading `id` superseded (a retake's earlier value), if any.
+    ///
+    /// A retake supersedes a reading of its own session and measurement
+    /// (`insert_reading`), so only those are searched, through the
+    /// `(session_id, measurement)` index: `superseded_by` has no index, and
+    /// a search by it alone read the whole table for every reading stored.
+    pub fn superseded_by_reading(&self, id: ReadingId) -> Result<Option<ReadingId>, StoreError> {
+        Ok(self
+            .tx
+            .query_row(
+                "SELECT o.id FROM readings r JOIN readings o
+                   ON o.session_id = r.session_id AND o.measurement = r.measurement
+                  AND o.superseded_by = r.id
+                 WHERE r.id = ?1 ORDER BY o.id DESC LIMIT 1",
+                [id.0],
+                |r| r.get::<_, i64>(0),
+            )
+            .optional()?
+            .map(ReadingId))
+    }
+
+    /// The stored estimate's header of `session` (made at, model, readings
+    /// JSON, report JSON), inside this transaction.
+    pub fn estimate_header(
+        &self,
+        session: SessionId,
+    ) -> Result<Option<(i64, String, String, String)>, StoreError> {
+        Ok(self
+            .tx
+            .query_row(
+                "SELECT made_at_ms, model_source, readings_json, report_json
+                 FROM estimates WHERE session_id = ?1",
+                [session.0],
+                |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
+            )
+            .optional()?)
+    }
+
+    /// Appends an event to the outbox (the next sequence number): `kind`
+    /// and `body` as `tapeshape-hub-api` writes them.
+    pub fn append_outbox(
+        &self,
+        session: Option<SessionId>,
+        kind: &str,
+        body: &str,
+    ) -> Result<i64, StoreError> {
+        self.tx.execute(
+            "INSERT INTO outbox (session_id, at_ms, kind, body) VALUES (?1, ?2, ?3, ?4)",
+            params![session.map(|s| s.0), now_ms(), kind, body],
+        )?;
+        Ok(self.tx.last_insert_rowid())
+    }
+
+    /// Replaces the content of every outbox event of `session` by a
+    /// redacted event (same sequence number): an erased session's readings
+    /// and customer id leave the outbox with it.
+    pub fn redact_outbox_of(&self, session: SessionId) -> Result<usize, StoreError> {
+        Ok(self.tx.execute(
+            "UPDATE outbox SET kind = 'redacted', body = '{\"kind\":\"redacted\"}', session_id = NULL
+             WHERE session_id = ?1",
+            [session.0],
+        )?)
+    }
+
+    /// Every session (id, customer id) of the store, for matching a
+    /// customer by their id's hash.
+    pub fn session_customers(&self) -> Result<Vec<(SessionId, String)>, StoreError> {
+        let mut stmt = self
+            .tx
+            .prepare("SELECT id, customer_id FROM sessions ORDER BY id")?;
+        let rows = stmt.query_map([], |r| Ok((SessionId(r.get(0)?), r.get(1)?)))?;
+        Ok(rows.collect::<Result<Vec<_>, _>>()?)
+    }
+
+    /// Records that the hub holds events 1 ..= `through`.
+    pub fn mark_committed(&self, through: i64) -> Result<(), StoreError> {
+        let now = now_ms();
+        let before: i64 = self.tx.query_row(
+            "SELECT hub_committed_seq FROM sync_state WHERE id = 1",
+            [],
+            |r| r.get(0),
+        )?;
+        self.tx.execute(
+            "UPDATE sync_state SET hub_committed_seq = ?1 WHERE id = 1",
+            [through],
+        )?;
+        // Only the events newly committed: a range of the primary key, so a
+        // batch costs its own rows, not a scan of the whole outbox (which
+        // grows with every change the station ever made).
+        self.tx.execute(
+            "UPDATE outbox SET committed_at_ms = ?3
+             WHERE seq > ?1 AND seq <= ?2 AND committed_at_ms IS NULL",
+            params![before, through, now],
+        )?;
+        Ok(())
+    }
+
+    /// Binds the store to station `name` (the first time), or checks that
+    /// it is bound to it; returns the name it is bound to.
+    pub fn bind_station(&self, name: &str) -> Result<String, StoreError> {
+        self.tx.execute(
+            "UPDATE sync_state SET station = ?1 WHERE id = 1 AND station IS NULL",
+            [name],
+        )?;
+        Ok(self
+            .tx
+            .query_row("SELECT station FROM sync_state WHERE id = 1", [], |r| {
+                r.get::<_, String>(0)
+            })?)
     }
 }

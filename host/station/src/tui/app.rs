@@ -278,6 +278,8 @@ pub enum Effect {
         set: String,
         /// Notes to store (sex, age).
         notes: Option<String>,
+        /// The customer's choice about their data.
+        consent: crate::store::Consent,
     },
     /// Load a session (reopening a closed one); answer with [`Event::SessionReady`].
     OpenSession(SessionId),

@@ -264,8 +264,14 @@ impl Ctx {
                 customer,
                 set,
                 notes,
+                consent,
             } => {
-                let r = self.sessions.start(&customer, &set, notes.as_deref());
+                let r = self.sessions.start_with_consent(
+                    &customer,
+                    &set,
+                    notes.as_deref(),
+                    Some(consent),
+                );
                 self.send(match r {
                     Ok(v) => Event::SessionReady(v),
                     Err(e) => Event::Failed(e.to_string()),
@@ -461,11 +467,16 @@ pub fn run_with_log(
 ) -> anyhow::Result<()> {
     use std::os::fd::AsFd as _;
     let log_path = options.log_dir.join("tapeshape.log");
-    let log = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&log_path)
-        .with_context(|| format!("opening the log file {}", log_path.display()))?;
+    let log = {
+        use std::os::unix::fs::OpenOptionsExt as _;
+        std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            // Owner-only: a log line may name a customer's session.
+            .mode(0o600)
+            .open(&log_path)
+    }
+    .with_context(|| format!("opening the log file {}", log_path.display()))?;
     let before = log.metadata().map(|m| m.len()).unwrap_or(0);
     let saved = rustix::io::dup(std::io::stderr().as_fd()).context("saving stderr")?;
     rustix::stdio::dup2_stderr(log.as_fd()).context("sending stderr to the log file")?;

@@ -1,6 +1,12 @@
 //! The new customer screen: a generated opaque customer id, sex, optional
-//! age and the measurement set (quick, ansur, paper34 or a set file); an
+//! age, the measurement set (quick, ansur, paper34 or a set file) and the
+//! customer's choice about their data (keep my data / this visit only); an
 //! unfinished session is offered for resuming first.
+//!
+//! The data choice starts at "this visit only" (privacy by default): the
+//! chain keeps a customer's sessions past the hub's retention only when the
+//! operator has asked and the customer said "keep my data". The choice is
+//! stored with the session and sent with its events.
 
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use ratatui::layout::Rect;
@@ -10,6 +16,7 @@ use ratatui::Frame;
 use tapeshape_population::ansur::Sex;
 
 use crate::session::ResumeOffer;
+use crate::store::Consent;
 use crate::tui::app::{action, AfterOpen, App, Effect, Global, Level};
 use crate::tui::keys::{ch, code, hints as hints_of, Binding, Hint};
 use crate::tui::theme::{centered, hint, hint_line, st, Role};
@@ -20,6 +27,10 @@ pub const BUILTIN_SET_CHOICES: [&str; 3] = ["quick", "ansur", "paper34"];
 /// The sexes the form offers, in the order `<-`/`->` cycle through them
 /// (`None`: not given).
 const SEXES: [Option<Sex>; 3] = [None, Some(Sex::Female), Some(Sex::Male)];
+
+/// The data choices the form offers, in the order `<-`/`->` cycle through
+/// them (the first is the default).
+const CONSENTS: [Consent; 2] = [Consent::Visit, Consent::Keep];
 
 /// The form's word for a sex (shown, and stored in the session notes).
 pub fn sex_word(sex: Option<Sex>) -> &'static str {
@@ -43,6 +54,8 @@ pub enum FormField {
     Set,
     /// Path of a custom set file.
     File,
+    /// The customer's choice about their data.
+    Consent,
 }
 
 /// The new customer screen's state: the form and the resume offer.
@@ -58,6 +71,9 @@ pub struct CustomerForm {
     pub set_choice: usize,
     /// Custom set file path as typed.
     pub file: String,
+    /// The customer's choice about their data ("this visit only" until
+    /// they choose to keep it).
+    pub consent: Consent,
     /// Focused field.
     pub field: FormField,
     /// What is wrong with the form, if the last Enter was refused.
@@ -88,6 +104,7 @@ impl CustomerForm {
             age: String::new(),
             set_choice,
             file,
+            consent: CONSENTS[0],
             field: FormField::Sex,
             error: None,
             resume: None,
@@ -125,6 +142,7 @@ impl CustomerForm {
         if self.set_choice == BUILTIN_SET_CHOICES.len() {
             f.push(FormField::File);
         }
+        f.push(FormField::Consent);
         f
     }
 
@@ -165,6 +183,8 @@ enum Action {
     Choose,
     Female,
     Male,
+    Keep,
+    Visit,
     DeleteChar,
     Start,
 }
@@ -212,7 +232,7 @@ fn bindings(app: &App) -> Vec<Binding<Action>> {
             &[code(KeyCode::Left), code(KeyCode::Right)],
             "<-/->",
             "choose",
-            "choose the sex or the measurement set",
+            "choose the sex, the measurement set or the data choice",
             Action::Choose,
         ),
         Binding::new(
@@ -244,6 +264,20 @@ fn bindings(app: &App) -> Vec<Binding<Action>> {
             "delete the last character typed",
             Action::DeleteChar,
         )),
+        FormField::Consent => {
+            b.push(Binding::help_only(
+                &[ch('k'), ch('K')],
+                "k",
+                "keep my data (the chain keeps the sessions until the customer asks to erase them)",
+                Action::Keep,
+            ));
+            b.push(Binding::help_only(
+                &[ch('v'), ch('V')],
+                "v",
+                "this visit only (purged after the hub's retention period)",
+                Action::Visit,
+            ));
+        }
         FormField::Set => {}
     }
     b
@@ -312,17 +346,26 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                 FormField::Set => {
                     form.set_choice = step(form.set_choice, BUILTIN_SET_CHOICES.len() + 1)
                 }
+                FormField::Consent => {
+                    let i = CONSENTS
+                        .iter()
+                        .position(|c| *c == form.consent)
+                        .unwrap_or(0);
+                    form.consent = CONSENTS[step(i, CONSENTS.len())];
+                }
                 _ => {}
             }
         }
         Action::Female => form.sex = Some(Sex::Female),
         Action::Male => form.sex = Some(Sex::Male),
+        Action::Keep => form.consent = Consent::Keep,
+        Action::Visit => form.consent = Consent::Visit,
         Action::DeleteChar => {
             match form.field {
                 FormField::Customer => form.customer.pop(),
                 FormField::Age => form.age.pop(),
                 FormField::File => form.file.pop(),
-                FormField::Sex | FormField::Set => None,
+                FormField::Sex | FormField::Set | FormField::Consent => None,
             };
         }
         Action::Start => submit(app, fx),
@@ -382,6 +425,7 @@ fn submit(app: &mut App, fx: &mut Vec<Effect>) {
         customer,
         set,
         notes: Some(notes),
+        consent: form.consent,
     });
 }
 
@@ -440,6 +484,12 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             "TOML file",
         ));
     }
+    lines.push(field(
+        FormField::Consent,
+        "their data",
+        format!("< {} >", f.consent.label()),
+        "ask them: k keep / v visit",
+    ));
     lines.push(Line::raw(""));
     let blurb = match BUILTIN_SET_CHOICES.get(f.set_choice) {
         Some(name) => set_blurb(name),
