@@ -6,6 +6,8 @@ use serde::{Deserialize, Serialize};
 use tapeshape_measure::MeasurementSet;
 use tapeshape_model::regress::JointGaussian;
 
+use tapeshape_population::ansur::Sex;
+
 use crate::{Estimator, Input, Inputs, Length, PredictError, Unit};
 
 /// A reading further than this many training SDs from the training mean is
@@ -23,6 +25,13 @@ pub const SLIP_SUSPECT_Z: f64 = 3.0;
 /// lies within this many SDs of the same prediction (95 % of honest
 /// readings do).
 pub const SLIP_Z: f64 = 2.0;
+
+/// Even a reading the operator kept is refused when it is further than this
+/// many SDs from real people (or the training population): no adult is
+/// (the tallest and the heaviest people on record are within about 15 SD).
+pub const BEYOND_HUMAN_Z: f64 = 25.0;
+/// ... or longer than this (metres): no human girth or length is.
+pub const BEYOND_HUMAN_M: f64 = 3.5;
 
 /// The reading's number read in another unit fits the prediction.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -108,6 +117,10 @@ pub struct InputCheck {
     pub predicted_sd_mm: Option<f64>,
     /// `(value - predicted) / predicted_sd`.
     pub conditional_z: Option<f64>,
+    /// The checks would refuse it, but the operator kept it
+    /// ([`Inputs::kept`]): estimated with a warning.
+    #[serde(default)]
+    pub kept_unusual: bool,
 }
 
 /// Which population a reading's prediction comes from.
@@ -190,7 +203,8 @@ impl RealStats {
         }
     }
 
-    pub(crate) fn compute(set: &MeasurementSet) -> RealStats {
+    /// The statistics of the train split's people of `sex` (`None`: both).
+    pub(crate) fn compute(set: &MeasurementSet, sex: Option<Sex>) -> RealStats {
         let Ok(ansur) = tapeshape_population::ansur::Ansur::get() else {
             return RealStats::none(set);
         };
@@ -205,7 +219,7 @@ impl RealStats {
             }
         }
         let subjects: Vec<&tapeshape_population::ansur::Subject> = ansur
-            .subjects(None, tapeshape_population::ansur::Split::Train)
+            .subjects(sex, tapeshape_population::ansur::Split::Train)
             .filter(|s| columns.iter().all(|c| s.dim(c).is_some_and(f64::is_finite)))
             .collect();
         if subjects.len() < columns.len() + 2 {
@@ -238,6 +252,31 @@ impl RealStats {
     #[cfg(test)]
     pub(crate) fn joint_for_tests(&self) -> &JointGaussian {
         &self.joint
+    }
+
+    /// The row of model measurement `j`, if it follows an ANSUR column.
+    pub(crate) fn row(&self, j: usize) -> Option<usize> {
+        self.row.get(j).copied().flatten()
+    }
+
+    /// Whether no measurement has statistics.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.joint.n_measurements == 0
+    }
+
+    /// Conditional means (metres) and variances (metres^2) of `rows` given
+    /// `observed` (row, value, noise variance); `None` as for
+    /// [`RealStats::conditional`].
+    pub(crate) fn conditional_many(
+        &self,
+        rows: &[usize],
+        observed: &[(usize, f64, f64)],
+    ) -> Option<(Vec<f64>, Vec<f64>)> {
+        let c = self.joint.conditional(rows, observed).ok()?;
+        Some((
+            c.mean.iter().copied().collect(),
+            (0..rows.len()).map(|i| c.cov[(i, i)]).collect(),
+        ))
     }
 
     /// Mean and SD (metres) of row `r`.
@@ -305,6 +344,15 @@ impl Estimator {
                 "no measurements given: give at least one, e.g. --measure stature=176.5cm".into(),
             ));
         }
+        if let Some(k) = inputs
+            .kept
+            .iter()
+            .find(|k| !inputs.readings.iter().any(|r| r.name == **k))
+        {
+            return Err(PredictError::Input(format!(
+                "'{k}' is to be kept but no such reading was given: keep only measurements that were entered"
+            )));
+        }
         let mut warnings = Vec::new();
         let mut checks = Vec::new();
         let mut index = Vec::new();
@@ -352,7 +400,7 @@ impl Estimator {
                     )));
                 }
             }
-            let real = self.real.get_or_init(|| RealStats::compute(&self.set));
+            let real = self.real_stats(inputs.sex);
             let (mean, sd) = match real.row[j] {
                 Some(r) => real.marginal(r),
                 None => self.stats[j],
@@ -367,8 +415,19 @@ impl Estimator {
                 Some(_) => Reference::RealPeople,
                 None => Reference::Training,
             };
+            let kept = inputs.kept.iter().any(|k| *k == r.name);
+            let mut kept_unusual = false;
             if refused(z, z_train, 0, reference) {
-                return Err(PredictError::OutOfRange(self.out_of_range(r, mean, sd, z)));
+                let msg = self.out_of_range(r, mean, sd, z);
+                if !kept || z.abs().min(z_train.abs()) > BEYOND_HUMAN_Z || v > BEYOND_HUMAN_M {
+                    return Err(PredictError::OutOfRange(if kept {
+                        format!("{msg}; kept by the operator, but beyond any person")
+                    } else {
+                        msg
+                    }));
+                }
+                kept_unusual = true;
+                warnings.push(format!("kept by the operator: {msg}"));
             }
             index.push(j);
             checks.push(InputCheck {
@@ -383,6 +442,7 @@ impl Estimator {
                 predicted_mm: None,
                 predicted_sd_mm: None,
                 conditional_z: None,
+                kept_unusual,
             });
         }
         // Each reading against what the others predict. Each reading's own
@@ -399,18 +459,26 @@ impl Estimator {
             })
             .collect();
         let mut bad = Vec::new();
+        // A kept reading is known to be unusual: it is not evidence about
+        // the others (short legs kept must not make a normal stature look
+        // wrong).
+        let is_kept: Vec<bool> = inputs
+            .readings
+            .iter()
+            .map(|r| inputs.kept.contains(&r.name))
+            .collect();
         if index.len() >= 2 {
             for a in 0..index.len() {
                 let observed: Vec<(usize, f64, f64)> = (0..index.len())
-                    .filter(|&b| b != a)
+                    .filter(|&b| b != a && !is_kept[b])
                     .map(|b| (index[b], inputs.readings[b].value.metres, noise[b].powi(2)))
                     .collect();
-                let real = self.real.get_or_init(|| RealStats::compute(&self.set));
+                let real = self.real_stats(inputs.sex);
                 // Readings with an ANSUR column are judged against real
                 // people (given the other such readings); the others against
                 // the training population, as a warning only.
                 let real_obs: Vec<(usize, f64, f64)> = (0..index.len())
-                    .filter(|&b| b != a)
+                    .filter(|&b| b != a && !is_kept[b])
                     .filter_map(|b| {
                         real.row[index[b]]
                             .map(|r| (r, inputs.readings[b].value.metres, noise[b].powi(2)))
@@ -469,7 +537,11 @@ impl Estimator {
                     mu * 100.0,
                     sd * 100.0
                 );
-                if refused(zc, z_t, index.len() - 1, reference) {
+                let kept = inputs.kept.iter().any(|k| *k == c.name);
+                if refused(zc, z_t, index.len() - 1, reference) && kept {
+                    c.kept_unusual = true;
+                    warnings.push(format!("kept by the operator: {msg}"));
+                } else if refused(zc, z_t, index.len() - 1, reference) {
                     bad.push((zc.abs(), msg));
                 } else if zc.abs() > CONDITIONAL_Z_WARN {
                     warnings.push(format!("{msg}: check this reading"));
@@ -480,7 +552,7 @@ impl Estimator {
             bad.sort_by(|a, b| b.0.total_cmp(&a.0));
             let list: Vec<String> = bad.into_iter().map(|b| b.1).collect();
             return Err(PredictError::Contradiction(format!(
-                "{}; re-take these readings",
+                "{}; re-take these readings, or keep them if they are right (the estimate then fits them as far as a human-looking body allows)",
                 list.join("; ")
             )));
         }
@@ -549,7 +621,7 @@ impl Estimator {
         let own = noise(j).powi(2);
         let cond = self.file.model.joint.conditional(&[j], &observed)?;
         let training = (cond.mean[0], (cond.cov[(0, 0)].max(0.0) + own).sqrt());
-        let real = self.real.get_or_init(|| RealStats::compute(&self.set));
+        let real = self.real_stats(None);
         if let Some(r) = real.row[j] {
             let real_obs: Vec<(usize, f64, f64)> = observed
                 .iter()

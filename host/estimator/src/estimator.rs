@@ -32,6 +32,8 @@ pub struct Estimator {
     pub(crate) topology: Arc<Topology>,
     pub(crate) stats: Vec<(f64, f64)>,
     pub(crate) real: OnceLock<RealStats>,
+    pub(crate) real_male: OnceLock<RealStats>,
+    pub(crate) real_female: OnceLock<RealStats>,
 }
 
 impl std::fmt::Debug for Estimator {
@@ -77,6 +79,8 @@ impl Estimator {
             topology,
             stats,
             real: OnceLock::new(),
+            real_male: OnceLock::new(),
+            real_female: OnceLock::new(),
         })
     }
 
@@ -135,7 +139,7 @@ impl Estimator {
                 let estimator = Self::default_uncached()?;
                 let real = estimator
                     .real
-                    .get_or_init(|| RealStats::compute(&estimator.set));
+                    .get_or_init(|| RealStats::compute(&estimator.set, None));
                 if let Err(e) =
                     cache::write(dir, cache::DEFAULT_MODEL_SHA256, &estimator.file, real)
                 {
@@ -212,6 +216,8 @@ impl Estimator {
             return Err(PredictError::Cancelled("before the input checks".into()));
         }
         let t0 = Instant::now();
+        let (expanded, totals) = self.expand_totals(inputs)?;
+        let inputs = &expanded;
         let (checks, mut warnings) = self.check(inputs)?;
         let check_time = t0.elapsed();
         let mut targets: Vec<Option<Target>> = vec![None; self.set.len()];
@@ -220,7 +226,17 @@ impl Estimator {
             targets[j] = Some(Target {
                 value: r.value.metres,
                 tolerance: r.tolerance,
+                soft: false,
             });
+        }
+        let soft = match options.real_people() {
+            Some(r) => self.soft_targets(inputs, &r)?,
+            None => Vec::new(),
+        };
+        let mut soft_targets = Vec::with_capacity(soft.len());
+        for (j, t, entry) in soft {
+            targets[j] = Some(t);
+            soft_targets.push(entry);
         }
         let p = self
             .file
@@ -237,6 +253,19 @@ impl Estimator {
                 pl.measurements_mahalanobis,
                 inputs.readings.len(),
                 100.0 * pl.measurements_quantile
+            ));
+        }
+        let kept: Vec<String> = checks
+            .iter()
+            .filter(|c| c.kept_unusual)
+            .map(|c| c.name.clone())
+            .collect();
+        if !kept.is_empty() {
+            warnings.push(format!(
+                "estimated with unusual readings the operator kept ({}): the body fits them as far as a human-looking surface allows; the set's plausibility: {:.1}% of the training population is closer to the mean (Mahalanobis distance {:.1})",
+                kept.join(", "),
+                100.0 * pl.measurements_quantile,
+                pl.measurements_mahalanobis
             ));
         }
         warnings.extend(p.report.warnings.iter().cloned());
@@ -256,6 +285,9 @@ impl Estimator {
                 prediction: p.report,
                 check_time,
                 warnings,
+                sex: inputs.sex,
+                soft_targets,
+                totals,
             },
         })
     }

@@ -13,6 +13,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use tapeshape_population::ansur::Sex;
+
 use crate::PredictError;
 
 /// A length unit an operator may type.
@@ -156,6 +158,16 @@ pub struct Input {
 pub struct Inputs {
     /// The readings in the order entered.
     pub readings: Vec<Input>,
+    /// The customer's sex when it was given: the estimate then follows the
+    /// statistics of real people of that sex (ANSUR II train split) for
+    /// what was not measured. `None`: both sexes pooled.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sex: Option<Sex>,
+    /// Readings the operator kept after a check flagged them (by name): an
+    /// unusual value among these is estimated with a warning instead of
+    /// refused; only impossible values are refused then.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub kept: Vec<String>,
 }
 
 impl Inputs {
@@ -312,8 +324,15 @@ impl Inputs {
             .map_err(|e| err(format!("measurement '{name}': {e}")))
         };
         let mut out = Inputs::new();
+        if let Some(v) = obj.get("sex") {
+            out.sex = Some(
+                v.as_str()
+                    .and_then(Sex::parse)
+                    .ok_or_else(|| err(format!("sex is {v}: write \"female\" or \"male\"")))?,
+            );
+        }
         for (name, value) in obj {
-            if name == "unit" {
+            if name == "unit" || name == "sex" {
                 continue;
             }
             let (value, tolerance) = match value {
@@ -381,17 +400,25 @@ impl Inputs {
         };
         let mut map = BTreeMap::new();
         let mut unit = None;
+        let mut sex = None;
         for (name, value) in header.iter().zip(row.iter()) {
             if name == "unit" {
                 unit =
                     Some(Unit::parse(value).ok_or_else(|| {
                         err(format!("unit '{value}' is not one of mm, cm, m, in"))
                     })?);
+            } else if name == "sex" {
+                if !value.is_empty() {
+                    sex = Some(Sex::parse(value).ok_or_else(|| {
+                        err(format!("sex '{value}' is not f, m, female or male"))
+                    })?);
+                }
             } else if !value.is_empty() {
                 map.insert(name.clone(), value.to_string());
             }
         }
         let mut out = Inputs::new();
+        out.sex = sex;
         for name in &header {
             let Some(value) = map.get(name) else { continue };
             let value =

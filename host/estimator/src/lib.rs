@@ -15,6 +15,8 @@
 //! | [`input`] | what an operator enters: [`Inputs`], [`Length`], [`Unit`], parsing from the command line and files |
 //! | [`options`] | what may be chosen for an estimate ([`PredictOptions`]), resolved once into the model's configuration |
 //! | [`checks`] | the input checks, the one unit-slip rule and the one refusal rule, [`Estimator::predict_reading`] for capture-time checks |
+//! | [`priors`] | soft targets from real people for what was not measured ([`RealPeople`]) |
+//! | [`totals`] | loop totals (a knee or arm girth as one tape reading) shared out over their pieces |
 //! | [`report`] | [`EstimateReport`]: inputs, checks, the model's stage report, warnings |
 //! | [`train`] | [`train`](fn@train): a model from a dataset (`tapeshape-population`) and named measurement sets |
 //! | [`file`] | model files, plain or gzip ([`save_model`], [`load_model_bytes`]) and the embedded default model |
@@ -72,7 +74,9 @@ pub mod estimator;
 pub mod file;
 pub mod input;
 pub mod options;
+pub mod priors;
 pub mod report;
+pub mod totals;
 pub mod train;
 
 pub use checks::{
@@ -84,10 +88,12 @@ pub use estimator::Estimator;
 pub use file::{load_model_bytes, save_model};
 pub use input::{parse_length, Input, Inputs, Length, Unit, BARE_NUMBER_UNIT};
 pub use options::{Pipeline, PredictOptions};
+pub use priors::{RealPeople, SoftTarget};
 pub use report::{Estimate, EstimateReport, ModelSummary};
 pub use tapeshape_model::predict::PredictionReport;
 pub use tapeshape_model::{
     Control, FitSettings, ModelError, ModelFile, PredictConfig, PredictObserver, PredictProgress,
     PredictSettings, PredictStage, Round, SettingsError, ShapeModel, Target,
 };
+pub use totals::TotalSplit;
 pub use train::{train, union_set_text, TrainSettings, DEFAULT_SETS};

@@ -12,7 +12,7 @@
 use serde::{Deserialize, Serialize};
 use tapeshape_model::{PredictConfig, PredictSettings};
 
-use crate::PredictError;
+use crate::{PredictError, RealPeople};
 
 /// Which of the model's pipelines an estimate runs.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -41,6 +41,12 @@ pub struct PredictOptions {
     /// Rounds of support recomputation per step (paper: 3; 0 = the start
     /// only); `None`: the pipeline's.
     pub s: Option<usize>,
+    /// How real people guide what was not measured ([`crate::priors`]):
+    /// `None`: the pipeline's (the station's: [`RealPeople::default`]; the
+    /// paper's and custom pipelines: nothing, the model alone);
+    /// `Some(None)`: nothing; `Some(Some(r))`: `r`.
+    #[serde(default)]
+    pub real_people: Option<Option<RealPeople>>,
 }
 
 impl PredictOptions {
@@ -77,6 +83,16 @@ impl PredictOptions {
             s.s = rounds;
         }
         s
+    }
+
+    /// The soft targets' settings these options give (see
+    /// [`PredictOptions::real_people`]).
+    pub fn real_people(&self) -> Option<RealPeople> {
+        match (&self.real_people, &self.pipeline) {
+            (Some(r), _) => *r,
+            (None, Pipeline::Station) => Some(RealPeople::default()),
+            (None, _) => None,
+        }
     }
 
     /// The model's configuration; errors if a value is out of range

@@ -7,7 +7,10 @@ use serde::{Deserialize, Serialize};
 use tapeshape_mesh::Mesh;
 use tapeshape_model::predict::PredictionReport;
 
+use tapeshape_population::ansur::Sex;
+
 use crate::checks::InputCheck;
+use crate::{SoftTarget, TotalSplit};
 
 /// Summary of the model used.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -37,6 +40,18 @@ pub struct EstimateReport {
     pub check_time: Duration,
     /// Everything the operator should know: input notes and the model's warnings.
     pub warnings: Vec<String>,
+    /// The customer's sex as given (`None`: not given, both sexes pooled).
+    #[serde(default)]
+    pub sex: Option<Sex>,
+    /// Soft targets from real people for what was not measured
+    /// ([`crate::priors`]); the model's report lists them among its
+    /// readings too.
+    #[serde(default)]
+    pub soft_targets: Vec<SoftTarget>,
+    /// Loop totals given as one reading and how they were shared out over
+    /// their pieces ([`crate::totals`]).
+    #[serde(default)]
+    pub totals: Vec<TotalSplit>,
 }
 
 /// A predicted body.

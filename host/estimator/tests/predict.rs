@@ -208,14 +208,19 @@ fn a_subset_fits_and_reports_the_rest() {
         r.start_method,
         tapeshape_model::predict::StartMethod::Conditional
     );
-    // Every measurement is reported; only the given ones have a target.
+    // Every measurement is reported; only the given ones have a target,
+    // besides the soft targets from real people (marked soft).
     assert_eq!(r.measurements.len(), e.set().len());
     assert_eq!(
         r.measurements
             .iter()
-            .filter(|m| m.target_mm.is_some())
+            .filter(|m| m.target_mm.is_some() && !m.soft)
             .count(),
         3
+    );
+    assert_eq!(
+        r.measurements.iter().filter(|m| m.soft).count(),
+        est.report.soft_targets.len()
     );
     assert!(r.measurements.iter().all(|m| m.step2_mm.is_some()));
 }

@@ -45,6 +45,26 @@ pub enum Sex {
     Female,
 }
 
+impl Sex {
+    /// Reads `m`, `f`, `male`, `female` (any case), as an operator or a
+    /// survey file writes it; `None` for anything else.
+    pub fn parse(text: &str) -> Option<Sex> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "m" | "male" => Some(Sex::Male),
+            "f" | "female" => Some(Sex::Female),
+            _ => None,
+        }
+    }
+
+    /// `male` or `female`.
+    pub fn word(self) -> &'static str {
+        match self {
+            Sex::Male => "male",
+            Sex::Female => "female",
+        }
+    }
+}
+
 /// Which part of the fixed split.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Split {

@@ -63,6 +63,8 @@ fn live(c: &mut Criterion) {
                         (n.to_string(), f64::from(v) / 10.0)
                     })
                     .collect(),
+                sex: None,
+                kept: Vec::new(),
             };
             let (tx, rx) = mpsc::channel();
             let _cancel = services.start_estimate(

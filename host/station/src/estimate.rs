@@ -494,7 +494,9 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
         .iter()
         .filter_map(|m| {
             let target = m.target_mm?;
-            let c = checks(&m.name);
+            // Entered readings only: a soft target from real people
+            // (estimator's `priors`) was fitted but not measured.
+            let c = Some(checks(&m.name)?);
             Some(ReportMeasurement {
                 name: m.name.clone(),
                 target_mm: target,
@@ -510,7 +512,7 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
     let measured_not_given = p
         .measurements
         .iter()
-        .filter(|m| m.target_mm.is_none())
+        .filter(|m| m.target_mm.is_none() || checks(&m.name).is_none())
         .filter_map(|m| Some((m.name.clone(), m.step2_mm?)))
         .collect();
     let pl = &p.plausibility;

@@ -33,6 +33,8 @@ fn measured_and_estimated(sessions: &Sessions) -> (SessionId, EstimateSummary) {
                 .iter()
                 .map(|(n, v)| (n.clone(), f64::from(*v) / 10.0))
                 .collect(),
+            sex: None,
+            kept: Vec::new(),
         },
         Box::new(move |ev| {
             let _ = tx.send(ev);

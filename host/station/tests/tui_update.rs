@@ -696,7 +696,7 @@ fn each_accepted_reading_re_estimates_live_and_e_shows_the_ready_body() {
         }],
     );
     assert!(!a.live.running);
-    assert_eq!(a.live.shown.as_ref().unwrap().1.seconds, 0.2);
+    assert_eq!(a.live.shown.as_ref().unwrap().2.seconds, 0.2);
     let fx = send(&mut a, [ch('e')]);
     assert_eq!(a.screen, Screen::Result, "the body is ready");
     assert_eq!(a.result.summary.as_ref().unwrap().seconds, 0.2);

@@ -8,7 +8,7 @@ use crate::Estimator;
 fn decoded() -> (ModelFile, RealStats) {
     let file = load_model_bytes(DEFAULT_MODEL, "test").expect("embedded model");
     let estimator = Estimator::new(file.clone(), "test").expect("compiles");
-    (file, RealStats::compute(&estimator.set))
+    (file, RealStats::compute(&estimator.set, None))
 }
 
 fn same(a: &ModelFile, b: &ModelFile) {

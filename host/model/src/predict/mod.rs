@@ -76,6 +76,12 @@ pub struct Target {
     /// Standard uncertainty of the reading, metres (`None`: as trusted as
     /// [`PredictSettings::reference_tolerance`]).
     pub tolerance: Option<f64>,
+    /// A soft target (a statistic for something nobody measured, e.g. what
+    /// real people with the given readings have): fitted like a reading
+    /// with its tolerance, but left out of the readings' plausibility and
+    /// of the "could not be fitted" warnings.
+    #[serde(default)]
+    pub soft: bool,
 }
 
 impl Target {
@@ -84,6 +90,7 @@ impl Target {
         Self {
             value,
             tolerance: None,
+            soft: false,
         }
     }
 
@@ -92,6 +99,16 @@ impl Target {
         Self {
             value,
             tolerance: Some(tolerance),
+            soft: false,
+        }
+    }
+
+    /// A soft target with standard uncertainty `tolerance` (metres).
+    pub fn soft(value: f64, tolerance: f64) -> Self {
+        Self {
+            value,
+            tolerance: Some(tolerance),
+            soft: true,
         }
     }
 }

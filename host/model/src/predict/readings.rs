@@ -21,6 +21,8 @@ pub struct Reading {
     pub weight: f64,
     /// The tolerance given with it, metres.
     pub tolerance: Option<f64>,
+    /// A soft target ([`Target::soft`]), not a reading.
+    pub soft: bool,
 }
 
 /// The given readings, checked ([`ShapeModel::readings`]), in the model's
@@ -132,6 +134,7 @@ impl ShapeModel {
                 target_mm: t.value * MM_PER_M,
                 weight,
                 tolerance: t.tolerance,
+                soft: t.soft,
             });
         }
         if given.is_empty() {

@@ -35,6 +35,9 @@ pub struct MeasurementReport {
     pub step2_mm: Option<f64>,
     /// `|step2 - target|`, mm.
     pub error_mm: Option<f64>,
+    /// The target was a soft one ([`super::Target::soft`]), not a reading.
+    #[serde(default)]
+    pub soft: bool,
 }
 
 /// Plausibility label from a chi-square quantile: below 0.95 typical, below
@@ -235,11 +238,23 @@ impl ShapeModel {
     /// measurements (left/right pairs) make every small asymmetry look
     /// implausible.
     fn measurement_mahalanobis(&self, given: &Readings) -> Result<f64> {
-        let idx: Vec<usize> = given.iter().map(|g| g.index).collect();
-        let val: Vec<f64> = given.iter().map(|g| g.target_mm / MM_PER_M).collect();
+        // Readings only: a soft target is a statistic, not the customer.
+        let idx: Vec<usize> = given.iter().filter(|g| !g.soft).map(|g| g.index).collect();
+        if idx.is_empty() {
+            return Ok(0.0);
+        }
+        let val: Vec<f64> = given
+            .iter()
+            .filter(|g| !g.soft)
+            .map(|g| g.target_mm / MM_PER_M)
+            .collect();
         // weight = (reference / tolerance)^2, so tolerance^2 = reference^2 / weight.
         let reference = given.reference_tolerance();
-        let noise: Vec<f64> = given.iter().map(|g| reference.powi(2) / g.weight).collect();
+        let noise: Vec<f64> = given
+            .iter()
+            .filter(|g| !g.soft)
+            .map(|g| reference.powi(2) / g.weight)
+            .collect();
         self.joint.mahalanobis(&idx, &val, &noise)
     }
 
@@ -290,13 +305,14 @@ impl ShapeModel {
         let mahalanobis = step1.weights.iter().map(|x| x * x).sum::<f64>().sqrt();
         let quantile = chi2_quantile(mahalanobis * mahalanobis, k);
         let meas_maha = self.measurement_mahalanobis(readings)?;
-        let meas_q = chi2_quantile(meas_maha * meas_maha, readings.len());
+        let n_readings = readings.iter().filter(|g| !g.soft).count();
+        let meas_q = chi2_quantile(meas_maha * meas_maha, n_readings.max(1));
         let meas_label =
             PlausibilityLabel::from_quantile(if meas_q.is_finite() { meas_q } else { 1.0 });
         if meas_label == PlausibilityLabel::Implausible {
             warnings.push(format!(
                 "the measurements are far from the training population (Mahalanobis distance {meas_maha:.1} over {} measurements): the shape is held to {} SD and may not fit them all",
-                readings.len(),
+                n_readings,
                 rc.l
             ));
         }
@@ -325,6 +341,7 @@ impl ShapeModel {
                 step1_mm: None,
                 step2_mm: None,
                 error_mm: None,
+                soft: false,
             })
             .collect();
         for (i, g) in readings.iter().enumerate() {
@@ -337,7 +354,8 @@ impl ShapeModel {
             r.step2_mm = Some(v2);
             let err = (v2 - g.target_mm).abs();
             r.error_mm = Some(err);
-            if err > rc.warn_error_mm {
+            r.soft = g.soft;
+            if err > rc.warn_error_mm && !g.soft {
                 warnings.push(format!(
                     "'{}' could not be fitted within {} mm (error {err:.1} mm)",
                     r.name, rc.warn_error_mm

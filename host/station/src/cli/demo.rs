@@ -206,6 +206,9 @@ fn headless_estimate(
             .current_readings()
             .map(|r| (r.measurement.clone(), r.value_mm()))
             .collect(),
+        sex: crate::tui::screens::new_customer::sex_of_notes(detail.session.notes.as_deref()),
+        // The headless demo keeps nothing: a refused set fails it.
+        kept: Vec::new(),
     };
     let (tx, rx) = std::sync::mpsc::channel();
     let _cancel = services.start_estimate(

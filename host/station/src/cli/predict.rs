@@ -47,6 +47,22 @@ pub struct Args {
     #[arg(long = "tolerance", value_name = "NAME=MM")]
     pub tolerances: Vec<String>,
 
+    /// The customer's sex (female or male; f, m): what was not measured
+    /// then follows real people of that sex. Without it both are pooled.
+    #[arg(long, value_name = "SEX", value_parser = parse_sex)]
+    pub sex: Option<tapeshape_population::ansur::Sex>,
+
+    /// Keep a reading the checks would refuse (the operator re-measured
+    /// and it is right): the body is estimated with it and a warning; only
+    /// impossible values are refused then. Repeat for each.
+    #[arg(long = "keep", value_name = "NAME")]
+    pub keep: Vec<String>,
+
+    /// Estimate what was not measured from the model alone, without the
+    /// soft targets from real people (ANSUR II statistics).
+    #[arg(long)]
+    pub no_real_people: bool,
+
     /// Write the body mesh (format by extension: .obj, .ply or .glb).
     #[arg(short, long, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -71,6 +87,11 @@ pub struct Args {
     /// List the model's measurements (name, sets, label) and exit.
     #[arg(long)]
     pub list: bool,
+}
+
+fn parse_sex(text: &str) -> Result<tapeshape_population::ansur::Sex, String> {
+    tapeshape_population::ansur::Sex::parse(text)
+        .ok_or_else(|| format!("'{text}' is not a sex: write female or male (f, m)"))
 }
 
 fn load_engine(model: Option<&Path>) -> anyhow::Result<EngineRef> {
@@ -117,6 +138,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     for t in &args.tolerances {
         inputs.set_tolerance(t)?;
     }
+    if args.sex.is_some() {
+        inputs.sex = args.sex;
+    }
+    inputs.kept.extend(args.keep.iter().cloned());
     if inputs.readings.is_empty() {
         bail!("no measurements given: use --measure NAME=VALUE (e.g. stature=176.5cm) or --measurements FILE; `tapeshape predict --list` shows the names");
     }
@@ -124,6 +149,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         l: args.l,
         lambda: args.lambda,
         s: args.s,
+        real_people: args.no_real_people.then_some(None),
         ..PredictOptions::default()
     };
     let estimate = estimator.predict(&inputs, &options)?;
@@ -184,7 +210,12 @@ fn print_report(r: &EstimateReport) -> std::io::Result<()> {
         "step 2",
         "error"
     )?;
-    for m in p.measurements.iter().filter(|m| m.target_mm.is_some()) {
+    let entered = |name: &str| r.inputs.iter().any(|c| c.name == name);
+    for m in p
+        .measurements
+        .iter()
+        .filter(|m| m.target_mm.is_some() && entered(&m.name))
+    {
         outln!(
             "{:<28} {:>9} {:>9} {:>9} {:>9} {:>8}",
             m.name,
@@ -193,6 +224,28 @@ fn print_report(r: &EstimateReport) -> std::io::Result<()> {
             fmt_mm(m.step1_mm),
             fmt_mm(m.step2_mm),
             m.error_mm.map_or("-".into(), |e| format!("{e:.2}"))
+        )?;
+    }
+    for t in &r.totals {
+        outln!(
+            "{} {:.1} mm taken as one reading: shared out over {}",
+            t.total,
+            t.value_mm,
+            t.pieces
+                .iter()
+                .map(|(n, v)| format!("{n} {v:.1}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )?;
+    }
+    if !r.soft_targets.is_empty() {
+        outln!(
+            "not measured: {} dimensions guided by real people{} (ANSUR II statistics given these readings; the report lists them)",
+            r.soft_targets.len(),
+            match r.sex {
+                Some(s) => format!(" ({})", s.word()),
+                None => " (both sexes)".into(),
+            }
         )?;
     }
     let pl = &p.plausibility;

@@ -61,6 +61,11 @@ pub struct EstimateRequest {
     pub session: SessionId,
     /// Readings (name, millimetres).
     pub readings: Vec<(String, f64)>,
+    /// The customer's sex, when the operator gave it.
+    pub sex: Option<tapeshape_population::ansur::Sex>,
+    /// Readings the operator kept after a check flagged them: estimated
+    /// with a warning rather than refused.
+    pub kept: Vec<String>,
 }
 
 /// A stage of the estimate: the estimator's (one type from the model up).

@@ -231,6 +231,8 @@ impl Services for StationServices {
                 return Box::new(NoCancel);
             }
         }
+        inputs.sex = request.sex;
+        inputs.kept = request.kept.clone();
         let t0 = Instant::now();
         let running = match estimate::start_estimate(estimator, &inputs, &PredictOptions::default())
         {

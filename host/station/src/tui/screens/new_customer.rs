@@ -41,6 +41,15 @@ pub fn sex_word(sex: Option<Sex>) -> &'static str {
     }
 }
 
+/// The sex stored in a session's notes by this form (`sex: female, age:
+/// 34`), for the estimate; `None` when not given or not written by it.
+pub fn sex_of_notes(notes: Option<&str>) -> Option<Sex> {
+    let rest = notes?
+        .split(',')
+        .find_map(|p| p.trim().strip_prefix("sex:"))?;
+    Sex::parse(rest)
+}
+
 /// Fields of the new customer form.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FormField {

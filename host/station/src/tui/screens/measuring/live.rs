@@ -31,28 +31,29 @@ pub struct LiveEstimate {
     pub session: Option<SessionId>,
     /// The readings of the latest request.
     pub readings: LiveReadings,
+    /// The kept flagged readings of the latest request (keeping one asks
+    /// for a new estimate: it may have been refused before).
+    pub kept: Vec<String>,
     /// The latest request is running.
     pub running: bool,
     /// The latest finished estimate and the readings it was made from
     /// (shown while a newer one runs).
-    pub shown: Option<(LiveReadings, Box<EstimateSummary>)>,
+    pub shown: Option<(LiveReadings, Vec<String>, Box<EstimateSummary>)>,
     /// Why the latest request produced no body (the readings so far
     /// contradict each other, say).
     pub error: Option<String>,
 }
 
 impl LiveEstimate {
-    /// The finished estimate of exactly `readings` of `session`, if there
-    /// is one.
-    pub fn ready(
-        &self,
-        session: SessionId,
-        readings: &[(String, f64)],
-    ) -> Option<&EstimateSummary> {
+    /// The finished estimate of exactly `request` (its session, readings
+    /// and kept readings), if there is one.
+    pub fn ready(&self, request: &EstimateRequest) -> Option<&EstimateSummary> {
         self.shown
             .as_ref()
-            .filter(|(r, s)| s.session == session && r.as_slice() == readings)
-            .map(|(_, s)| s.as_ref())
+            .filter(|(r, k, s)| {
+                s.session == request.session && *r == request.readings && *k == request.kept
+            })
+            .map(|(_, _, s)| s.as_ref())
     }
 }
 
@@ -61,15 +62,19 @@ impl LiveEstimate {
 pub fn sync(app: &mut App, fx: &mut Vec<Effect>) {
     let want = match (&app.session, app.screen) {
         (Some(s), Screen::Measuring) if !s.items.iter().any(|i| i.state == ItemState::Checking) => {
-            Some((s.id, s.accepted()))
+            Some(s.estimate_request())
         }
         (Some(_), _) => return, // keep what there is while elsewhere
         (None, _) => None,
     };
     let live = &mut app.live;
     match want {
-        Some((session, readings)) if !readings.is_empty() => {
-            if live.session == Some(session) && live.readings == readings {
+        Some(request) if !request.readings.is_empty() => {
+            let session = request.session;
+            if live.session == Some(session)
+                && live.readings == request.readings
+                && live.kept == request.kept
+            {
                 return;
             }
             if live.session != Some(session) {
@@ -77,12 +82,13 @@ pub fn sync(app: &mut App, fx: &mut Vec<Effect>) {
             }
             live.generation += 1;
             live.session = Some(session);
-            live.readings = readings.clone();
+            live.readings = request.readings.clone();
+            live.kept = request.kept.clone();
             live.running = true;
             live.error = None;
             fx.push(Effect::LiveEstimate {
                 generation: live.generation,
-                request: EstimateRequest { session, readings },
+                request,
             });
         }
         _ => {
@@ -111,7 +117,7 @@ pub fn on_live(app: &mut App, generation: u64, event: EstimateEvent) {
         EstimateEvent::Done(summary) => {
             live.running = false;
             live.error = None;
-            live.shown = Some((live.readings.clone(), summary));
+            live.shown = Some((live.readings.clone(), live.kept.clone(), summary));
         }
         EstimateEvent::Failed(msg) => {
             live.running = false;

@@ -323,11 +323,11 @@ fn draw_live(app: &App, frame: &mut Frame, area: Rect) {
     let status = match (&live.shown, live.running, &live.error) {
         (_, true, _) => " updating... ".to_string(),
         (_, false, Some(_)) => " no body yet ".to_string(),
-        (Some((r, _)), false, None) => format!(" {} readings ", r.len()),
+        (Some((r, _, _)), false, None) => format!(" {} readings ", r.len()),
         (None, false, None) => String::new(),
     };
     match &live.shown {
-        Some((_, summary)) => {
+        Some((_, _, summary)) => {
             let [front, side] =
                 Layout::horizontal([Constraint::Ratio(1, 2), Constraint::Ratio(1, 2)]).areas(area);
             frame.render_widget(

@@ -105,6 +105,22 @@ impl SessionState {
             .collect()
     }
 
+    /// The estimate request for these readings: the customer's sex from
+    /// the session notes and the flagged readings the operator kept.
+    pub fn estimate_request(&self) -> EstimateRequest {
+        EstimateRequest {
+            session: self.id,
+            readings: self.accepted(),
+            sex: crate::tui::screens::new_customer::sex_of_notes(self.notes.as_deref()),
+            kept: self
+                .items
+                .iter()
+                .filter(|i| i.kept_flagged && i.value.is_some())
+                .map(|i| i.info.name.clone())
+                .collect(),
+        }
+    }
+
     /// Count of items in `state`.
     pub fn count(&self, state: ItemState) -> usize {
         self.items.iter().filter(|i| i.state == state).count()
@@ -434,8 +450,8 @@ pub(super) fn advance(app: &mut App) {
 /// Starts an estimate of the accepted readings (then an export, if asked).
 pub(super) fn start_estimate(app: &mut App, fx: &mut Vec<Effect>, then_export: bool) {
     let Some(s) = &app.session else { return };
-    let readings = s.accepted();
-    if readings.is_empty() {
+    let request = s.estimate_request();
+    if request.readings.is_empty() {
         app.note(
             Level::Warn,
             "No readings yet: take at least one measurement before estimating",
@@ -449,7 +465,7 @@ pub(super) fn start_estimate(app: &mut App, fx: &mut Vec<Effect>, then_export: b
     }
     let session = s.id;
     // The live estimate of exactly these readings is done: no waiting.
-    if let Some(summary) = app.live.ready(session, &readings) {
+    if let Some(summary) = app.live.ready(&request) {
         app.result.summary = Some(summary.clone());
         app.result.exported = None;
         app.result.stored = None;
@@ -471,5 +487,5 @@ pub(super) fn start_estimate(app: &mut App, fx: &mut Vec<Effect>, then_export: b
     app.after_open = then_export.then_some(AfterOpen::Export);
     app.screen = Screen::Estimating;
     app.notice = None;
-    fx.push(Effect::StartEstimate(EstimateRequest { session, readings }));
+    fx.push(Effect::StartEstimate(request));
 }

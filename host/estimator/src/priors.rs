@@ -1,0 +1,140 @@
+//! What the tape did not measure, from real people.
+//!
+//! Why: the shape model's own relations between measurements come from a
+//! generated population, and for the dimensions a customer was not
+//! measured on they predict real people far worse than a plain regression
+//! on real people does (issue 12: 20.6 mm against 9.2 mm mean absolute
+//! error over 35 ANSUR II dimensions). So every model measurement that
+//! follows an ANSUR II column and was not given becomes a **soft target**:
+//! the Gaussian conditional of the ANSUR II train split (of the customer's
+//! sex when it is known) given the readings that were taken, with each
+//! reading's own error as noise, and with the conditional SD (times
+//! [`RealPeople::sd_scale`], at least the measurement's ISO 20685-1
+//! allowable error) as its tolerance. The model weighs a target by
+//! `(reference / tolerance)^2`, so a real reading (a few mm) dominates
+//! and a soft target only pulls where nothing was measured; step 2 keeps a
+//! soft target at the value step 1 gave it (a tolerance wider than the
+//! reference), so the surface is not bent towards a statistic.
+//!
+//! The conditional is one [`tapeshape_model::regress::JointGaussian::conditional`]
+//! of all soft targets at once (one Cholesky per estimate).
+
+use serde::{Deserialize, Serialize};
+use tapeshape_model::Target;
+use tapeshape_population::ansur::Sex;
+
+use crate::checks::RealStats;
+use crate::{Estimator, Inputs, PredictError};
+
+/// How real people guide the unmeasured dimensions.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RealPeople {
+    /// A soft target's tolerance is this many conditional SDs (at least
+    /// the measurement's ISO 20685-1 allowable error).
+    pub sd_scale: f64,
+}
+
+impl Default for RealPeople {
+    fn default() -> Self {
+        Self { sd_scale: 1.0 }
+    }
+}
+
+/// One soft target, as the report lists it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SoftTarget {
+    /// Measurement name.
+    pub name: String,
+    /// What real people with these readings have on average, mm.
+    pub value_mm: f64,
+    /// Its conditional SD, mm.
+    pub sd_mm: f64,
+    /// The tolerance the fit was given, mm.
+    pub tolerance_mm: f64,
+}
+
+impl Estimator {
+    /// Real-people statistics for `sex` (`None`: pooled), computed on first
+    /// use.
+    pub(crate) fn real_stats(&self, sex: Option<Sex>) -> &RealStats {
+        match sex {
+            None => self
+                .real
+                .get_or_init(|| RealStats::compute(&self.set, None)),
+            Some(Sex::Male) => self
+                .real_male
+                .get_or_init(|| RealStats::compute(&self.set, sex)),
+            Some(Sex::Female) => self
+                .real_female
+                .get_or_init(|| RealStats::compute(&self.set, sex)),
+        }
+    }
+
+    /// The soft targets for `inputs` (see the module docs): one per model
+    /// measurement with an ANSUR II column that `inputs` does not give.
+    /// Returns (model index, target) pairs and their report entries.
+    ///
+    /// Errors only if `settings.sd_scale` is not a positive number.
+    pub fn soft_targets(
+        &self,
+        inputs: &Inputs,
+        settings: &RealPeople,
+    ) -> Result<Vec<(usize, Target, SoftTarget)>, PredictError> {
+        if !(settings.sd_scale.is_finite() && settings.sd_scale > 0.0) {
+            return Err(PredictError::Input(format!(
+                "the soft targets' SD scale is {}: it must be a positive number",
+                settings.sd_scale
+            )));
+        }
+        let real = self.real_stats(inputs.sex);
+        let given: Vec<Option<usize>> = inputs
+            .readings
+            .iter()
+            .map(|r| self.set.index_of(&r.name))
+            .collect();
+        let observed: Vec<(usize, f64, f64)> = inputs
+            .readings
+            .iter()
+            .zip(&given)
+            .filter_map(|(r, j)| {
+                let j = (*j)?;
+                let row = real.row(j)?;
+                let noise = r
+                    .tolerance
+                    .unwrap_or(self.set.definitions[j].tolerance.mm() / 1000.0);
+                Some((row, r.value.metres, noise * noise))
+            })
+            .collect();
+        let wanted: Vec<(usize, usize)> = (0..self.set.len())
+            .filter(|j| !given.contains(&Some(*j)))
+            .filter_map(|j| real.row(j).map(|r| (j, r)))
+            .collect();
+        if wanted.is_empty() || real.is_empty() {
+            return Ok(Vec::new());
+        }
+        let rows: Vec<usize> = wanted.iter().map(|&(_, r)| r).collect();
+        let Some((mean, var)) = real.conditional_many(&rows, &observed) else {
+            return Ok(Vec::new());
+        };
+        Ok(wanted
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| mean[k].is_finite() && mean[k] > 0.0 && var[k].is_finite())
+            .map(|(k, &(j, _))| {
+                let sd = var[k].max(0.0).sqrt();
+                let iso = self.set.definitions[j].tolerance.mm() / 1000.0;
+                let tol = (sd * settings.sd_scale).max(iso);
+                (
+                    j,
+                    Target::soft(mean[k], tol),
+                    SoftTarget {
+                        name: self.set.definitions[j].name.clone(),
+                        value_mm: mean[k] * 1000.0,
+                        sd_mm: sd * 1000.0,
+                        tolerance_mm: tol * 1000.0,
+                    },
+                )
+            })
+            .collect())
+    }
+}
