@@ -4,6 +4,7 @@
 //! (`cargo run --release -p tapeshape-eval -- NAME --out docs/results/NAME`,
 //! `src/main.rs`).
 
+pub mod customers;
 pub mod experiments;
 pub mod figures;
 pub mod method;

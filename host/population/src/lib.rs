@@ -36,6 +36,8 @@ pub use faces::{face_local_changes, generate_faces, head_region, remap_anatomy, 
 pub use format::{
     BodyRecord, Dataset, DatasetHeader, DatasetKind, FitRecord, FORMAT_VERSION, MAGIC,
 };
-pub use generate::{generate_population, race_weights, PopulationSettings, FIT_TARGETS};
+pub use generate::{
+    generate_population, race_weights, FitScope, PopulationSettings, EXTRA_FIT_TARGETS, FIT_TARGETS,
+};
 pub use import::{import_dir, read_mesh};
 pub use statistics::{population_statistics, statistics_markdown, SexStatistics, CHECKED_COLUMNS};

@@ -40,6 +40,11 @@ enum Command {
         /// SD of the random local variation (local-change units, 0 = none).
         #[arg(long, default_value_t = 0.15)]
         local_variation: f64,
+        /// Which ANSUR II dimensions each body is fitted to: `twelve`
+        /// (stature, girths, main lengths) or `ansur` (also breadths,
+        /// depths, landmark heights, head; issue 12).
+        #[arg(long, default_value = "twelve", value_parser = parse_fit)]
+        fit: dataset::FitScope,
         /// Output file (.tsd).
         #[arg(long, short = 'o')]
         out: PathBuf,
@@ -86,6 +91,16 @@ fn progress_bar(n: usize, what: &str) -> indicatif::ProgressBar {
     bar
 }
 
+fn parse_fit(text: &str) -> Result<dataset::FitScope, String> {
+    match text {
+        "twelve" => Ok(dataset::FitScope::Twelve),
+        "ansur" => Ok(dataset::FitScope::Ansur),
+        other => Err(format!(
+            "'{other}' is not a fit scope: write twelve or ansur"
+        )),
+    }
+}
+
 /// Runs `tapeshape dataset`.
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     match args.command {
@@ -94,6 +109,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
             seed,
             male_fraction,
             local_variation,
+            fit,
             out,
         } => {
             let settings = PopulationSettings {
@@ -101,6 +117,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
                 seed,
                 male_fraction,
                 local_variation_sd: local_variation,
+                fit,
                 ..PopulationSettings::default()
             };
             let bar = progress_bar(n, "fitting bodies to ANSUR II");

@@ -1,0 +1,380 @@
+//! Real customers through the product's own path: every ANSUR II test-split
+//! person (ids divisible by 4, never used to train, fit or calibrate)
+//! entered into the station's estimator (the embedded default model and
+//! its default settings, as `tapeshape predict` runs them), with their real
+//! values of an input set (`quick` or `ansur`) and, optionally, their sex.
+//!
+//! What is measured, per person:
+//!
+//! * every other `ansur` dimension (one whose ANSUR II column the input set
+//!   does not give) measured on the predicted body and compared with the
+//!   person's real value, beside ordinary least squares from the same input
+//!   columns fitted on the ANSUR II train split, pooled and with sex (a
+//!   male indicator), in the same run;
+//! * the entered values re-measured on the body and judged against their
+//!   ISO 20685-1 allowable error (the definition's tolerance class);
+//! * refusals (with the estimator's message), flipped triangles.
+//!
+//! The measurements on the body use the same definitions the model was
+//! trained with (the union of the `ansur` and `quick` sets), compiled once.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+use tapeshape_estimator::{Estimator, Inputs, PredictOptions};
+use tapeshape_measure::{CompiledSet, MeasurementSet};
+use tapeshape_population::ansur::{Ansur, Sex, Split, Subject};
+
+use crate::experiments::EvalError;
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct CustomersOptions {
+    /// The input set: `quick` or `ansur` (its measurements with an ANSUR
+    /// column are entered).
+    pub input_set: String,
+    /// Give the estimator the person's sex.
+    pub with_sex: bool,
+    /// At most this many people per sex (the first by id), `None`: all.
+    pub per_sex: Option<usize>,
+    /// ANSUR columns left out of the input (e.g. flexed girths).
+    pub leave_out: Vec<String>,
+    /// The estimator's options (default: the station's).
+    pub options: PredictOptions,
+}
+
+/// One person's outcome.
+#[derive(Debug, Clone)]
+pub struct PersonResult {
+    /// ANSUR II subject id.
+    pub id: u32,
+    /// Sex.
+    pub sex: Sex,
+    /// The estimator's message when it refused.
+    pub refused: Option<String>,
+    /// Every measurement of the union set on the body, metres (empty when refused).
+    pub body: Vec<f64>,
+    /// Per entered reading: (index in the union set, entered m, within ISO).
+    pub entered: Vec<(usize, f64, bool)>,
+    /// Flipped triangles of the result.
+    pub flipped: usize,
+    /// The estimate's warnings.
+    pub warnings: Vec<String>,
+}
+
+/// One held-out dimension's errors, mm.
+#[derive(Debug, Clone)]
+pub struct DimRow {
+    /// ANSUR II column.
+    pub column: String,
+    /// Mean absolute error of the body's value.
+    pub body: f64,
+    /// Mean signed error of the body's value (body - real).
+    pub body_bias: f64,
+    /// Least squares with sex.
+    pub ols_sex: f64,
+    /// Least squares, sexes pooled.
+    pub ols_pooled: f64,
+}
+
+/// The whole run.
+#[derive(Debug, Clone)]
+pub struct CustomersRun {
+    /// Per person.
+    pub people: Vec<PersonResult>,
+    /// Per held-out dimension.
+    pub dims: Vec<DimRow>,
+    /// The union set's names, in order.
+    pub names: Vec<String>,
+    /// ISO tolerance per union-set measurement, mm.
+    pub tolerance_mm: Vec<f64>,
+    /// Train-split subjects the regressions were fitted on.
+    pub n_train: usize,
+    /// Seconds the predictions took (wall).
+    pub seconds: f64,
+}
+
+impl CustomersRun {
+    /// Mean over the held-out dimensions of (body, ols with sex, pooled), mm.
+    pub fn overall(&self) -> (f64, f64, f64) {
+        let n = self.dims.len().max(1) as f64;
+        (
+            self.dims.iter().map(|d| d.body).sum::<f64>() / n,
+            self.dims.iter().map(|d| d.ols_sex).sum::<f64>() / n,
+            self.dims.iter().map(|d| d.ols_pooled).sum::<f64>() / n,
+        )
+    }
+
+    /// People refused.
+    pub fn refused(&self) -> usize {
+        self.people.iter().filter(|p| p.refused.is_some()).count()
+    }
+
+    /// Share of entered readings (over all people estimated) within their
+    /// ISO 20685-1 allowable error on the body, and per measurement name
+    /// (share, count).
+    pub fn iso_pass(&self) -> (f64, BTreeMap<String, (f64, usize)>) {
+        let mut per: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+        let (mut ok, mut all) = (0usize, 0usize);
+        for p in self.people.iter().filter(|p| p.refused.is_none()) {
+            for &(j, _, pass) in &p.entered {
+                let e = per.entry(self.names[j].clone()).or_default();
+                e.1 += 1;
+                all += 1;
+                if pass {
+                    e.0 += 1;
+                    ok += 1;
+                }
+            }
+        }
+        (
+            ok as f64 / all.max(1) as f64,
+            per.into_iter()
+                .map(|(k, (o, a))| (k, (o as f64 / a.max(1) as f64, a)))
+                .collect(),
+        )
+    }
+}
+
+fn ols(x: &DMatrix<f64>, y: &DVector<f64>) -> Option<DVector<f64>> {
+    // Columns of x plus an intercept, solved by SVD (well conditioned
+    // enough for a handful of body dimensions in metres).
+    let n = x.nrows();
+    let mut a = DMatrix::from_element(n, x.ncols() + 1, 1.0);
+    a.view_mut((0, 0), (n, x.ncols())).copy_from(x);
+    a.svd(true, true).solve(y, 1e-12).ok()
+}
+
+fn features(s: &Subject, cols: &[String], with_sex: bool) -> Option<Vec<f64>> {
+    let mut v: Vec<f64> = cols.iter().map(|c| s.dim(c)).collect::<Option<_>>()?;
+    if with_sex {
+        v.push(if s.sex == Sex::Male { 1.0 } else { 0.0 });
+    }
+    Some(v)
+}
+
+fn predict_row(b: &DVector<f64>, x: &[f64]) -> f64 {
+    x.iter().zip(b.iter()).map(|(a, c)| a * c).sum::<f64>() + b[b.len() - 1]
+}
+
+/// The test-split people: all, or the first `per_sex` of each sex by id.
+pub fn test_people(ansur: &Ansur, per_sex: Option<usize>) -> Vec<&Subject> {
+    let mut v = Vec::new();
+    for sex in [Sex::Male, Sex::Female] {
+        let mut s: Vec<&Subject> = ansur.subjects(Some(sex), Split::Test).collect();
+        s.sort_by_key(|s| s.id);
+        if let Some(k) = per_sex {
+            s.truncate(k);
+        }
+        v.extend(s);
+    }
+    debug_assert!(v.iter().all(|s| s.id % 4 == 0));
+    v
+}
+
+/// Runs every test-split person through `estimator` (see the module docs).
+pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRun, EvalError> {
+    let data = |e: &dyn std::fmt::Display| EvalError::Data(e.to_string());
+    let text = tapeshape_estimator::union_set_text(&["ansur", "quick"]).map_err(|e| data(&e))?;
+    let union = MeasurementSet::from_toml_str(&text, "ansur+quick")?;
+    let compiled: CompiledSet =
+        union.compile(estimator.topology(), &tapeshape_body::anatomy::anatomy())?;
+    let input = MeasurementSet::load(&opts.input_set)?;
+    // The entered measurements: the input set's, with an ANSUR column, known
+    // to the estimator.
+    let entered: Vec<(String, String)> = input
+        .definitions
+        .iter()
+        .filter_map(|d| d.ansur.clone().map(|c| (d.name.clone(), c)))
+        .filter(|(n, c)| estimator.set().index_of(n).is_some() && !opts.leave_out.contains(c))
+        .collect();
+    let in_cols: Vec<String> = entered.iter().map(|(_, c)| c.clone()).collect();
+    let ansur_set = MeasurementSet::load("ansur")?;
+    let held: Vec<(usize, String)> = ansur_set
+        .definitions
+        .iter()
+        .filter_map(|d| {
+            let c = d.ansur.clone()?;
+            (!in_cols.contains(&c)).then_some((union.index_of(&d.name)?, c))
+        })
+        .collect();
+    let ansur = Ansur::get()?;
+    let people = test_people(ansur, opts.per_sex);
+    let t0 = std::time::Instant::now();
+    let options = opts.options.clone();
+    let results: Vec<PersonResult> = people
+        .par_iter()
+        .map(|s| {
+            let mut inputs = Inputs::new();
+            let mut idx = Vec::new();
+            for (name, col) in &entered {
+                if let Some(v) = s.dim(col) {
+                    // Names are unique in the set: insert cannot fail.
+                    let _ = inputs.insert_metres(name, v);
+                    idx.push((union.index_of(name).unwrap_or(usize::MAX), v));
+                }
+            }
+            if opts.with_sex {
+                inputs.sex = Some(s.sex);
+            }
+            let mut r = PersonResult {
+                id: s.id,
+                sex: s.sex,
+                refused: None,
+                body: Vec::new(),
+                entered: Vec::new(),
+                flipped: 0,
+                warnings: Vec::new(),
+            };
+            match estimator.predict(&inputs, &options) {
+                Err(e) => r.refused = Some(e.to_string()),
+                Ok(est) => match compiled.measure(&est.mesh.vertices) {
+                    Err(e) => r.refused = Some(format!("measuring the body: {e}")),
+                    Ok(m) => {
+                        r.body = m.iter().map(|m| m.value).collect();
+                        r.entered = idx
+                            .iter()
+                            .filter(|(j, _)| *j < r.body.len())
+                            .map(|&(j, v)| {
+                                let tol = union.definitions[j].tolerance.mm() / 1000.0;
+                                (j, v, (r.body[j] - v).abs() <= tol)
+                            })
+                            .collect();
+                        r.flipped = est.report.prediction.plausibility.flipped_triangles;
+                        r.warnings = est.report.warnings;
+                    }
+                },
+            }
+            r
+        })
+        .collect();
+    let seconds = t0.elapsed().as_secs_f64();
+    // Regressions on the train split, from the same input columns.
+    let train: Vec<&Subject> = ansur
+        .subjects(None, Split::Train)
+        .filter(|s| features(s, &in_cols, false).is_some())
+        .collect();
+    let mut dims = Vec::new();
+    for (j, col) in &held {
+        let rows: Vec<&&Subject> = train.iter().filter(|s| s.dim(col).is_some()).collect();
+        let y = DVector::from_iterator(rows.len(), rows.iter().filter_map(|s| s.dim(col)));
+        let fit = |with_sex: bool| {
+            let k = in_cols.len() + usize::from(with_sex);
+            let x = DMatrix::from_row_iterator(
+                rows.len(),
+                k,
+                rows.iter()
+                    .flat_map(|s| features(s, &in_cols, with_sex).unwrap_or_default()),
+            );
+            ols(&x, &y)
+        };
+        let (bs, bp) = (fit(true), fit(false));
+        let (mut e_body, mut e_s, mut e_p, mut n) = (0.0, 0.0, 0.0, 0usize);
+        let mut bias = 0.0;
+        for (p, s) in results.iter().zip(&people) {
+            let (Some(v), None) = (s.dim(col), &p.refused) else {
+                continue;
+            };
+            let (Some(fs), Some(fp)) = (features(s, &in_cols, true), features(s, &in_cols, false))
+            else {
+                continue;
+            };
+            e_body += (p.body[*j] - v).abs();
+            bias += p.body[*j] - v;
+            e_s += bs
+                .as_ref()
+                .map_or(f64::NAN, |b| (predict_row(b, &fs) - v).abs());
+            e_p += bp
+                .as_ref()
+                .map_or(f64::NAN, |b| (predict_row(b, &fp) - v).abs());
+            n += 1;
+        }
+        let k = 1000.0 / n.max(1) as f64;
+        dims.push(DimRow {
+            column: col.clone(),
+            body: e_body * k,
+            body_bias: bias * k,
+            ols_sex: e_s * k,
+            ols_pooled: e_p * k,
+        });
+    }
+    Ok(CustomersRun {
+        people: results,
+        dims,
+        names: union.definitions.iter().map(|d| d.name.clone()).collect(),
+        tolerance_mm: union.definitions.iter().map(|d| d.tolerance.mm()).collect(),
+        n_train: train.len(),
+        seconds,
+    })
+}
+
+/// A Markdown page of `run` (tables of the held-out dimensions, ISO pass
+/// shares, refusals).
+pub fn markdown(run: &CustomersRun, opts: &CustomersOptions, command: &str) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let (b, os, op) = run.overall();
+    let (iso, per) = run.iso_pass();
+    let n = run.people.len();
+    let _ = writeln!(
+        s,
+        "# Real customers: ANSUR II test split through the estimator ({} input{})\n",
+        opts.input_set,
+        if opts.with_sex { ", with sex" } else { "" }
+    );
+    let _ = writeln!(s, "Command: `{command}`\n");
+    let _ = writeln!(
+        s,
+        "{n} test-split people (ids divisible by 4), {} refused; predictions {:.1} s wall. \
+Regressions fitted on {} ANSUR II train-split subjects.\n",
+        run.refused(),
+        run.seconds,
+        run.n_train
+    );
+    let _ = writeln!(
+        s,
+        "| | mean absolute error over the {} other `ansur` dimensions, mm |\n|---|---|",
+        run.dims.len()
+    );
+    let _ = writeln!(s, "| body (estimator) | **{b:.2}** |");
+    let _ = writeln!(s, "| least squares with sex | {os:.2} |");
+    let _ = writeln!(s, "| least squares, pooled | {op:.2} |");
+    let _ = writeln!(s, "| ratio body / with sex | {:.3} |\n", b / os);
+    let _ = writeln!(
+        s,
+        "| dimension | body mm | body bias mm | LS with sex mm | LS pooled mm | ratio |\n|---|---|---|---|---|---|"
+    );
+    for d in &run.dims {
+        let _ = writeln!(
+            s,
+            "| {} | {:.1} | {:+.1} | {:.1} | {:.1} | {:.2} |",
+            d.column,
+            d.body,
+            d.body_bias,
+            d.ols_sex,
+            d.ols_pooled,
+            d.body / d.ols_sex
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nEntered values re-measured on the body within ISO 20685-1: **{:.1} %**\n",
+        100.0 * iso
+    );
+    let _ = writeln!(s, "| measurement | within ISO | readings |\n|---|---|---|");
+    for (k, (share, count)) in &per {
+        let _ = writeln!(s, "| {k} | {:.1} % | {count} |", 100.0 * share);
+    }
+    let flipped: usize = run.people.iter().map(|p| p.flipped).sum();
+    let _ = writeln!(s, "\nFlipped triangles over all bodies: {flipped}.");
+    let refused: Vec<String> = run
+        .people
+        .iter()
+        .filter_map(|p| p.refused.as_ref().map(|r| format!("- {}: {r}", p.id)))
+        .collect();
+    if !refused.is_empty() {
+        let _ = writeln!(s, "\nRefused:\n\n{}", refused.join("\n"));
+    }
+    s
+}

@@ -1,0 +1,47 @@
+//! How well a generated population's bodies met their subjects, per fitted
+//! dimension: mean absolute and mean signed error (achieved - target), the
+//! share within 5 mm, and iterations.
+//!
+//! `cargo run --release -p tapeshape-population --example fit_report -- FILE.tsd`
+
+use std::collections::BTreeMap;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let path = std::env::args()
+        .nth(1)
+        .ok_or("usage: fit_report FILE.tsd")?;
+    let d = tapeshape_population::Dataset::read(std::path::Path::new(&path))?;
+    let mut per: BTreeMap<String, (f64, f64, usize, usize)> = BTreeMap::new();
+    let mut iters = Vec::new();
+    for b in &d.header.bodies {
+        let Some(f) = &b.fit else { continue };
+        iters.push(f.iterations);
+        for (k, t) in &f.target_mm {
+            let Some(a) = f.achieved_mm.get(k) else {
+                continue;
+            };
+            let e = per.entry(k.clone()).or_default();
+            e.0 += (a - t).abs();
+            e.1 += a - t;
+            e.2 += usize::from((a - t).abs() <= 5.0);
+            e.3 += 1;
+        }
+    }
+    println!("| dimension | mean abs error mm | mean signed mm | within 5 mm |\n|---|---|---|---|");
+    for (k, (abs, signed, ok, n)) in &per {
+        let n = *n as f64;
+        println!(
+            "| {k} | {:.1} | {:+.1} | {:.0} % |",
+            abs / n,
+            signed / n,
+            100.0 * *ok as f64 / n
+        );
+    }
+    iters.sort_unstable();
+    println!(
+        "\n{} bodies; iterations median {}",
+        iters.len(),
+        iters.get(iters.len() / 2).copied().unwrap_or(0)
+    );
+    Ok(())
+}
