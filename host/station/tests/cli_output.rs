@@ -56,7 +56,7 @@ fn template_obj(dir: &Path) -> std::path::PathBuf {
 /// each group total is marked derived, and `predict` refuses it naming the
 /// members to give instead.
 #[test]
-fn what_measure_prints_predict_takes_and_totals_are_marked_derived() {
+fn what_measure_prints_predict_takes_totals_included() {
     let tmp = tempfile::tempdir().unwrap();
     let mesh = template_obj(tmp.path());
     let mut groups_seen = 0;
@@ -102,16 +102,40 @@ fn what_measure_prints_predict_takes_and_totals_are_marked_derived() {
             // The total is the sum of its members as printed.
             let sum: f64 = members.iter().map(|m| readings[*m].as_f64().unwrap()).sum();
             assert!((g["value_mm"].as_f64().unwrap() - sum).abs() < 1e-6, "{g}");
+            // A total is one tape reading: predict takes it and shares it
+            // out over its pieces (issue 12, item 5).
+            let out = common::tapeshape(tmp.path(), &["predict", "--measure"])
+                .arg(format!("{name}={}mm", g["value_mm"].as_f64().unwrap()))
+                .arg("--measure")
+                .arg(format!(
+                    "stature={}mm",
+                    readings
+                        .get("stature")
+                        .and_then(serde_json::Value::as_f64)
+                        .unwrap_or(1700.0)
+                ))
+                .output()
+                .unwrap();
+            let stdout = String::from_utf8_lossy(&out.stdout);
+            assert!(
+                out.status.success(),
+                "{name} was refused: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            assert!(stdout.contains("taken as one reading"), "{stdout}");
+            for m in &members {
+                assert!(stdout.contains(m), "{name}: {stdout}");
+            }
+            // With one of its own pieces it is a mistake, said plainly.
             let out = common::tapeshape(tmp.path(), &["predict", "--measure"])
                 .arg(format!("{name}=380mm"))
+                .arg("--measure")
+                .arg(format!("{}=100mm", members[0]))
                 .output()
                 .unwrap();
             let err = String::from_utf8_lossy(&out.stderr);
-            assert!(!out.status.success(), "{name} was accepted");
-            assert!(err.contains("derived total"), "{err}");
-            for m in &members {
-                assert!(err.contains(m), "{name}: {err}");
-            }
+            assert!(!out.status.success(), "{name} with its piece was accepted");
+            assert!(err.contains("both as a total"), "{err}");
         }
     }
     assert_eq!(groups_seen, 4, "paper34's knee and arm loops, both sides");

@@ -166,6 +166,22 @@ fn a_flagged_reading_stays_current_until_retaken_or_kept() {
     assert_eq!(s.items[2].state, ItemState::Done);
     assert!(s.items[2].kept_flagged);
     assert_eq!(current(&a).as_deref(), Some("hip"));
+    // The estimate asks for the kept reading to be kept (the estimator then
+    // estimates with it instead of refusing), and only that one.
+    let request = s.estimate_request();
+    assert_eq!(request.kept, vec!["waist".to_string()]);
+    assert_eq!(request.readings.len(), 3);
+}
+
+#[test]
+fn the_estimate_takes_the_sex_from_the_new_customer_form() {
+    use tapeshape::tui::screens::new_customer::sex_of_notes;
+    use tapeshape_population::ansur::Sex;
+    assert_eq!(sex_of_notes(Some("sex: female, age: 34")), Some(Sex::Female));
+    assert_eq!(sex_of_notes(Some("sex: male")), Some(Sex::Male));
+    assert_eq!(sex_of_notes(Some("sex: not given, age: 50")), None);
+    assert_eq!(sex_of_notes(Some("met at the door")), None);
+    assert_eq!(sex_of_notes(None), None);
 }
 
 #[test]

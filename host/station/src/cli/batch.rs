@@ -9,9 +9,9 @@
 //!   `tapeshape predict --list` shows them; values as `predict` takes them,
 //!   `98cm`, `980mm`, a bare number in centimetres; an empty cell is "not
 //!   measured"), and optionally `id` (default: the row number, `row-1`,
-//!   ...), `sex` (`m`/`f`/`male`/`female`, recorded in the report; the
-//!   model itself does not take it) and `unit` (the unit of that row's bare
-//!   numbers).
+//!   ...), `sex` (`m`/`f`/`male`/`female`: what was not measured then
+//!   follows real people of that sex, as `tapeshape predict --sex`) and
+//!   `unit` (the unit of that row's bare numbers).
 //! * **Output.** `DIR/<id>.<glb|obj|ply>` and `DIR/<id>.json` (the report
 //!   without stage times, which differ from run to run), each written
 //!   atomically, the report last: a person is done when both exist and the
@@ -224,6 +224,9 @@ pub fn read_rows(text: &str, origin: &str) -> anyhow::Result<Vec<Row>> {
             if inputs.readings.is_empty() {
                 return Err("no measurement in this row".into());
             }
+            inputs.sex = sex
+                .as_deref()
+                .and_then(tapeshape_population::ansur::Sex::parse);
             Ok(inputs)
         })();
         rows.push(Row {

@@ -1,0 +1,95 @@
+//! Garment sizes for an estimate from a store's size chart (issue 14,
+//! `tapeshape-sizes`).
+//!
+//! A dimension the operator measured counts as measured, with its ISO
+//! 20685-1 allowable error (or the reading's own tolerance) as its SD; one
+//! that was not measured is read off the estimated body, with its spread:
+//! the real-people conditional SD of its soft target where it has one
+//! (`tapeshape_estimator::priors`), else what the other readings predict
+//! for it ([`Estimator::predict_reading`]).
+
+use tapeshape_estimator::{Estimate, Estimator, Inputs};
+use tapeshape_measure::Class;
+use tapeshape_sizes::{
+    recommend, Chart, ChartError, DimensionKind, KnownDimension, Readings, Recommendation,
+};
+
+/// The chart's dimension names the estimator knows, with their kinds.
+pub fn known_dimensions(estimator: &Estimator) -> Vec<KnownDimension> {
+    estimator
+        .set()
+        .definitions
+        .iter()
+        .map(|d| {
+            let kind = match d.class {
+                Class::Girth => DimensionKind::Girth,
+                Class::Length | Class::Height | Class::Arc => DimensionKind::Length,
+                Class::Breadth | Class::Depth => DimensionKind::Breadth,
+            };
+            KnownDimension::new(d.name.clone(), kind)
+        })
+        .collect()
+}
+
+/// Loads and checks a size chart against the estimator's measurement names.
+pub fn load_chart(path: &std::path::Path, estimator: &Estimator) -> Result<Chart, ChartError> {
+    Chart::from_path(path, &known_dimensions(estimator))
+}
+
+/// The sizes of every garment of `chart` for `estimate`, made from
+/// `inputs` (see the module docs).
+pub fn sizes(
+    estimator: &Estimator,
+    inputs: &Inputs,
+    estimate: &Estimate,
+    chart: &Chart,
+) -> Recommendation {
+    let report = &estimate.report;
+    let mut readings = Readings::new();
+    let wanted: Vec<&str> = chart
+        .garments()
+        .iter()
+        .flat_map(|g| g.dimensions().map(|d| d.name()))
+        .collect();
+    for c in &report.inputs {
+        if !wanted.contains(&c.name.as_str()) {
+            continue;
+        }
+        let sd = c.tolerance_mm.unwrap_or_else(|| {
+            estimator
+                .set()
+                .index_of(&c.name)
+                .map_or(0.0, |j| estimator.set().definitions[j].tolerance.mm())
+        });
+        // Names are unique among the inputs and values positive: the
+        // estimator checked them.
+        let _ = readings.insert_measured(&c.name, c.value_mm, sd);
+    }
+    let others: Vec<(&str, f64)> = inputs
+        .readings
+        .iter()
+        .map(|r| (r.name.as_str(), r.value.metres))
+        .collect();
+    for m in &report.prediction.measurements {
+        let name = m.name.as_str();
+        if !wanted.contains(&name) || report.inputs.iter().any(|c| c.name == name) {
+            continue;
+        }
+        let Some(value) = m.step2_mm else { continue };
+        let sd = report
+            .soft_targets
+            .iter()
+            .find(|t| t.name == name)
+            .map(|t| t.sd_mm)
+            .or_else(|| {
+                estimator
+                    .predict_reading(name, &others)
+                    .ok()
+                    .map(|p| p.sd * 1000.0)
+            });
+        if let Some(sd) = sd {
+            let _ = readings.insert_estimated(name, value, sd);
+        }
+    }
+    recommend(chart, &readings)
+}
