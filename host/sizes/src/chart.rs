@@ -122,6 +122,14 @@ pub struct Interval {
 }
 
 impl Interval {
+    /// `[lo_mm, hi_mm)`; the caller ensures finite bounds with lo < hi
+    /// (charts are validated before they build intervals).
+    #[cfg(test)]
+    pub(crate) fn new(lo_mm: f64, hi_mm: f64) -> Interval {
+        assert!(lo_mm.is_finite() && hi_mm.is_finite() && lo_mm < hi_mm);
+        Interval { lo_mm, hi_mm }
+    }
+
     /// Lower bound (inclusive), mm.
     pub fn lo_mm(&self) -> f64 {
         self.lo_mm
