@@ -18,8 +18,10 @@
 //!
 //! * **Probability** of a size: the product over its primary dimensions of
 //!   `P(lo ≤ X < hi)`, each dimension an independent normal
-//!   `N(value, sd²)` ([`interval_probability`]). Independence is an
-//!   assumption (girths correlate), stated wherever the number is shown.
+//!   `N(value, sd²)` ([`interval_probability`]). Independence of the
+//!   readings' errors is an assumption (fair for separate tape readings,
+//!   an approximation for dimensions estimated from one body, whose errors
+//!   correlate), stated wherever the number is shown.
 //!   Sizes of a validated chart are disjoint cells, so a garment's
 //!   probabilities sum to at most 1 (less when part of the normal lies
 //!   beyond the chart or in a missing cell).
