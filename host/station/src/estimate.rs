@@ -637,5 +637,7 @@ pub fn export_report(
     Ok(written)
 }
 
+pub mod sizes;
+
 #[cfg(test)]
 mod tests;

@@ -140,3 +140,65 @@ fn what_measure_prints_predict_takes_totals_included() {
     }
     assert_eq!(groups_seen, 4, "paper34's knee and arm loops, both sides");
 }
+
+#[test]
+fn predict_with_a_size_chart_prints_and_reports_the_sizes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let chart =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/size-charts/menswear.toml");
+    let report = tmp.path().join("report.json");
+    let out = common::tapeshape(
+        tmp.path(),
+        &[
+            "predict",
+            "--measure",
+            "stature=176cm",
+            "--measure",
+            "chest=104cm",
+            "--measure",
+            "waist=88cm",
+            "--measure",
+            "inside_leg=83cm",
+            "--sex",
+            "male",
+            "--chart",
+        ],
+    )
+    .arg(&chart)
+    .arg("--report")
+    .arg(&report)
+    .output()
+    .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Chest 104 cm sits inside the example chart's shirt M [100, 108).
+    assert!(stdout.contains("shirt: M"), "{stdout}");
+    // Hip was not measured: the trousers' hip is read off the body.
+    assert!(stdout.contains("estimated"), "{stdout}");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    let garments = json["sizes"]["garments"].as_array().unwrap();
+    assert_eq!(garments.len(), 3);
+    assert_eq!(json["sex"], "Male");
+    // A chart naming a measurement the station does not know: a clear
+    // error before any estimate.
+    let bad = tmp.path().join("bad.toml");
+    std::fs::write(
+        &bad,
+        "[chart]\nname = \"x\"\nunits = \"cm\"\n[[garment]]\nname = \"shirt\"\nprimary = [\"chst\"]\nsize = [{ label = \"M\", chst = [100, 108] }]\n",
+    )
+    .unwrap();
+    let out = common::tapeshape(
+        tmp.path(),
+        &["predict", "--measure", "stature=176cm", "--chart"],
+    )
+    .arg(&bad)
+    .output()
+    .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("chst") && err.contains("chest"), "{err}");
+}

@@ -177,7 +177,10 @@ fn a_flagged_reading_stays_current_until_retaken_or_kept() {
 fn the_estimate_takes_the_sex_from_the_new_customer_form() {
     use tapeshape::tui::screens::new_customer::sex_of_notes;
     use tapeshape_population::ansur::Sex;
-    assert_eq!(sex_of_notes(Some("sex: female, age: 34")), Some(Sex::Female));
+    assert_eq!(
+        sex_of_notes(Some("sex: female, age: 34")),
+        Some(Sex::Female)
+    );
     assert_eq!(sex_of_notes(Some("sex: male")), Some(Sex::Male));
     assert_eq!(sex_of_notes(Some("sex: not given, age: 50")), None);
     assert_eq!(sex_of_notes(Some("met at the door")), None);

@@ -63,6 +63,12 @@ pub struct Args {
     #[arg(long)]
     pub no_real_people: bool,
 
+    /// A store's size chart (TOML, docs/size-charts.md; examples in
+    /// examples/size-charts/): print the size per garment and add it to
+    /// the report as "sizes".
+    #[arg(long, value_name = "FILE")]
+    pub chart: Option<PathBuf>,
+
     /// Write the body mesh (format by extension: .obj, .ply or .glb).
     #[arg(short, long, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -152,10 +158,28 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         real_people: args.no_real_people.then_some(None),
         ..PredictOptions::default()
     };
+    // The chart is checked before the estimate: a wrong chart costs nothing.
+    let chart = match &args.chart {
+        Some(p) => Some(crate::estimate::sizes::load_chart(p, &estimator)?),
+        None => None,
+    };
     let estimate = estimator.predict(&inputs, &options)?;
     print_report(&estimate.report)?;
+    let sizes = chart
+        .as_ref()
+        .map(|c| crate::estimate::sizes::sizes(&estimator, &inputs, &estimate, c));
+    if let Some(s) = &sizes {
+        outln!("{s}")?;
+    }
     if let Some(path) = &args.report {
-        let json = serde_json::to_vec_pretty(&estimate.report).context("encoding the report")?;
+        let mut value = serde_json::to_value(&estimate.report).context("encoding the report")?;
+        if let (Some(s), Some(obj)) = (&sizes, value.as_object_mut()) {
+            obj.insert(
+                "sizes".into(),
+                serde_json::to_value(s).context("encoding the sizes")?,
+            );
+        }
+        let json = serde_json::to_vec_pretty(&value).context("encoding the report")?;
         tapeshape_common::fs::write_atomic(path, &json)
             .with_context(|| format!("writing the report {}", path.display()))?;
         outln!("report: {}", path.display())?;
