@@ -415,7 +415,7 @@ impl Estimator {
                 Some(_) => Reference::RealPeople,
                 None => Reference::Training,
             };
-            let kept = inputs.kept.iter().any(|k| *k == r.name);
+            let kept = inputs.kept.contains(&r.name);
             let mut kept_unusual = false;
             if refused(z, z_train, 0, reference) {
                 let msg = self.out_of_range(r, mean, sd, z);
@@ -537,7 +537,7 @@ impl Estimator {
                     mu * 100.0,
                     sd * 100.0
                 );
-                let kept = inputs.kept.iter().any(|k| *k == c.name);
+                let kept = inputs.kept.contains(&c.name);
                 if refused(zc, z_t, index.len() - 1, reference) && kept {
                     c.kept_unusual = true;
                     warnings.push(format!("kept by the operator: {msg}"));
