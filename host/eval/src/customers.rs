@@ -332,30 +332,37 @@ Regressions fitted on {} ANSUR II train-split subjects.\n",
         run.seconds,
         run.n_train
     );
-    let _ = writeln!(
-        s,
-        "| | mean absolute error over the {} other `ansur` dimensions, mm |\n|---|---|",
-        run.dims.len()
-    );
-    let _ = writeln!(s, "| body (estimator) | **{b:.2}** |");
-    let _ = writeln!(s, "| least squares with sex | {os:.2} |");
-    let _ = writeln!(s, "| least squares, pooled | {op:.2} |");
-    let _ = writeln!(s, "| ratio body / with sex | {:.3} |\n", b / os);
-    let _ = writeln!(
-        s,
-        "| dimension | body mm | body bias mm | LS with sex mm | LS pooled mm | ratio |\n|---|---|---|---|---|---|"
-    );
-    for d in &run.dims {
+    if run.dims.is_empty() {
         let _ = writeln!(
             s,
-            "| {} | {:.1} | {:+.1} | {:.1} | {:.1} | {:.2} |",
-            d.column,
-            d.body,
-            d.body_bias,
-            d.ols_sex,
-            d.ols_pooled,
-            d.body / d.ols_sex
+            "The input gives every `ansur` dimension: none is held out."
         );
+    } else {
+        let _ = writeln!(
+            s,
+            "| | mean absolute error over the {} other `ansur` dimensions, mm |\n|---|---|",
+            run.dims.len()
+        );
+        let _ = writeln!(s, "| body (estimator) | **{b:.2}** |");
+        let _ = writeln!(s, "| least squares with sex | {os:.2} |");
+        let _ = writeln!(s, "| least squares, pooled | {op:.2} |");
+        let _ = writeln!(s, "| ratio body / with sex | {:.3} |\n", b / os);
+        let _ = writeln!(
+            s,
+            "| dimension | body mm | body bias mm | LS with sex mm | LS pooled mm | ratio |\n|---|---|---|---|---|---|"
+        );
+        for d in &run.dims {
+            let _ = writeln!(
+                s,
+                "| {} | {:.1} | {:+.1} | {:.1} | {:.1} | {:.2} |",
+                d.column,
+                d.body,
+                d.body_bias,
+                d.ols_sex,
+                d.ols_pooled,
+                d.body / d.ols_sex
+            );
+        }
     }
     let _ = writeln!(
         s,
