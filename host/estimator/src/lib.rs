@@ -62,7 +62,16 @@
 //!   one function, [`refused`], which the station's capture-time check
 //!   also asks;
 //! * an implausible but possible set is predicted, with a warning and its
-//!   plausibility (Mahalanobis distances) in the report.
+//!   plausibility (Mahalanobis distances) in the report;
+//! * a reading the operator kept after a flag ([`Inputs::kept`]) is never
+//!   refused as out of range or contradicting unless it is beyond any
+//!   person ([`checks::BEYOND_HUMAN_Z`], [`checks::BEYOND_HUMAN_M`]): it is
+//!   estimated with a warning naming it, and it does not condition the
+//!   other readings' checks.
+//!
+//! Before the checks, a loop total given as one reading is shared out over
+//! its pieces ([`totals`]); after them, what was not measured gets soft
+//! targets from real people of the customer's sex ([`priors`]).
 //!
 //! Units: metres inside, station frame (Z up, feet at z = 0, +Y front, +X the
 //! body's right).

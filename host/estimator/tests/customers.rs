@@ -67,9 +67,8 @@ fn sex_changes_what_real_people_predict_for_the_unmeasured() {
         );
         assert!(t.sd_mm > 0.0 && t.tolerance_mm >= t.sd_mm, "{t:?}");
     }
-    // At the same stature, chest and hip, ANSUR II men have broader
-    // shoulders (biacromial breadth) than women: the conditional differs
-    // in the right direction.
+    // At the same stature, chest and hip, ANSUR II men have thicker wrists
+    // than women: the conditional differs in the right direction.
     let get = |v: &Vec<(
         usize,
         tapeshape_estimator::Target,
@@ -81,11 +80,11 @@ fn sex_changes_what_real_people_predict_for_the_unmeasured() {
             .map(|(_, _, t)| t.value_mm)
             .unwrap()
     };
-    let (m, w) = (get(&sm, "biacromialbreadth"), get(&sw, "biacromialbreadth"));
-    assert!(
-        m > w + 10.0,
-        "biacromial breadth man {m:.1} mm, woman {w:.1} mm"
+    let (m, w) = (
+        get(&sm, "wristcircumference"),
+        get(&sw, "wristcircumference"),
     );
+    assert!(m > w + 8.0, "wrist man {m:.1} mm, woman {w:.1} mm");
     // And the estimate reports the sex it used.
     let est = e.predict(&man, &PredictOptions::default()).unwrap();
     assert_eq!(est.report.sex, Some(Sex::Male));
