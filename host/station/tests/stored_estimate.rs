@@ -111,6 +111,32 @@ fn after_a_restart_the_stored_estimate_shows_and_exports_the_same_body() {
             );
         }
     }
+    // With the store's size chart, the stored result shows a size per
+    // garment (from the estimator's report kept with the estimate).
+    let chart_path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/size-charts/menswear.toml");
+    let estimator = tapeshape_estimator::Estimator::default_model().unwrap();
+    let chart = tapeshape::estimate::sizes::load_chart(&chart_path, estimator).unwrap();
+    let with_sizes = StationServices::new(sessions.clone(), None).with_chart(chart);
+    let sized = with_sizes.stored_result(id).unwrap().unwrap();
+    assert_eq!(sized.rows, shown.rows);
+    let garments: Vec<&str> = sized
+        .sizes
+        .iter()
+        .map(|l| l.split(':').next().unwrap())
+        .collect();
+    assert_eq!(
+        garments,
+        ["shirt", "jacket", "trousers"],
+        "{:?}",
+        sized.sizes
+    );
+    assert!(
+        sized.sizes.iter().all(|l| l.contains(" %")),
+        "{:?}",
+        sized.sizes
+    );
+    assert!(shown.sizes.is_empty());
     // A session without an estimate says so.
     let empty = sessions.start("c-none", "quick", None).unwrap();
     assert_eq!(services.stored_result(empty.id).unwrap(), None);

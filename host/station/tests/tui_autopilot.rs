@@ -76,6 +76,7 @@ fn answer(fx: Vec<Effect>, seq: &mut u32, log: &mut Vec<Effect>) -> Vec<Event> {
                     warnings: Vec::new(),
                     silhouettes: Default::default(),
                     seconds: 0.1,
+                    sizes: Vec::new(),
                 }),
             ))),
             Effect::Export { .. } => out.push(Event::Exported(Ok(vec!["/x/body.glb".into()]))),

@@ -96,6 +96,7 @@ fn measuring_with_the_live_body() {
                 warnings: Vec::new(),
                 silhouettes: figure(),
                 seconds: 0.2,
+                sizes: Vec::new(),
             })),
         }],
     );
@@ -289,6 +290,7 @@ fn result_app() -> App {
                 warnings: vec!["'chest' could not be fitted within 2 mm (error 2.9 mm)".into()],
                 silhouettes: figure(),
                 seconds: 0.41,
+                sizes: Vec::new(),
             },
         )))],
     );
@@ -298,6 +300,19 @@ fn result_app() -> App {
 #[test]
 fn result_screen() {
     insta::assert_snapshot!(render(&result_app()));
+}
+
+#[test]
+fn result_screen_with_sizes() {
+    let mut a = result_app();
+    if let Some(s) = a.result.summary.as_mut() {
+        s.sizes = vec![
+            "shirt: M (50 %) or S".into(),
+            "jacket: 50 (97 %)".into(),
+            "trousers: W88/L84 (49 %) or W88/L80".into(),
+        ];
+    }
+    insta::assert_snapshot!(render(&a));
 }
 
 #[test]

@@ -476,6 +476,7 @@ fn export_marks_the_session_done_and_history_delete_asks_first() {
                 warnings: Vec::new(),
                 silhouettes: Default::default(),
                 seconds: 0.3,
+                sizes: Vec::new(),
             },
         )))],
     );
@@ -506,6 +507,7 @@ fn export_marks_the_session_done_and_history_delete_asks_first() {
                 warnings: Vec::new(),
                 silhouettes: Default::default(),
                 seconds: 0.3,
+                sizes: Vec::new(),
             },
         )))],
     );
@@ -663,6 +665,7 @@ fn summary(seconds: f64) -> tapeshape::services::EstimateSummary {
         warnings: Vec::new(),
         silhouettes: Default::default(),
         seconds,
+        sizes: Vec::new(),
     }
 }
 

@@ -167,7 +167,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     print_report(&estimate.report)?;
     let sizes = chart
         .as_ref()
-        .map(|c| crate::estimate::sizes::sizes(&estimator, &inputs, &estimate, c));
+        .map(|c| crate::estimate::sizes::sizes(&estimator, &estimate.report, c));
     if let Some(s) = &sizes {
         outln!("{s}")?;
     }

@@ -93,9 +93,37 @@ pub struct Args {
     #[arg(long, value_name = "CHOICE")]
     pub consent: Option<crate::store::Consent>,
 
+    /// The store's size chart (TOML, docs/size-charts.md): the result
+    /// screen shows a size per garment [default: DATA_DIR/size-chart.toml
+    /// when it exists].
+    #[arg(long, value_name = "FILE")]
+    pub chart: Option<PathBuf>,
+
     /// Syncing to the chain's hub.
     #[command(flatten)]
     pub hub: crate::cli::HubArgs,
+}
+
+/// The size chart of `tapeshape station`: `--chart FILE`, else
+/// `DATA_DIR/size-chart.toml` if there is one. A chart that cannot be
+/// read stops the start with its error (better than a fitting room
+/// without sizes it thinks it has).
+fn station_chart(
+    chart: Option<&std::path::Path>,
+    data_dir: &std::path::Path,
+) -> anyhow::Result<Option<tapeshape_sizes::Chart>> {
+    let path = match chart {
+        Some(p) => p.to_path_buf(),
+        None => {
+            let p = data_dir.join("size-chart.toml");
+            if !p.exists() {
+                return Ok(None);
+            }
+            p
+        }
+    };
+    let estimator = tapeshape_estimator::Estimator::default_model()?;
+    Ok(Some(crate::estimate::sizes::load_chart(&path, estimator)?))
 }
 
 /// Is the line mode asked for (a session named on the command line)?
@@ -143,10 +171,11 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         .enable_all()
         .build()
         .context("starting the async runtime")?;
-    let services = std::sync::Arc::new(crate::services::station::StationServices::new(
-        sessions.clone(),
-        tolerance,
-    ));
+    let mut services = crate::services::station::StationServices::new(sessions.clone(), tolerance);
+    if let Some(chart) = station_chart(args.chart.as_deref(), &data_dir)? {
+        services = services.with_chart(chart);
+    }
+    let services = std::sync::Arc::new(services);
     // Load the model while the operator types the first customer, so that
     // the first estimate is as fast as the tenth (an error shows at the
     // first estimate, where the interface reports it).

@@ -8,7 +8,7 @@
 //! (`tapeshape_estimator::priors`), else what the other readings predict
 //! for it ([`Estimator::predict_reading`]).
 
-use tapeshape_estimator::{Estimate, Estimator, Inputs};
+use tapeshape_estimator::{EstimateReport, Estimator};
 use tapeshape_measure::Class;
 use tapeshape_sizes::{
     recommend, Chart, ChartError, DimensionKind, KnownDimension, Readings, Recommendation,
@@ -36,15 +36,10 @@ pub fn load_chart(path: &std::path::Path, estimator: &Estimator) -> Result<Chart
     Chart::from_path(path, &known_dimensions(estimator))
 }
 
-/// The sizes of every garment of `chart` for `estimate`, made from
-/// `inputs` (see the module docs).
-pub fn sizes(
-    estimator: &Estimator,
-    inputs: &Inputs,
-    estimate: &Estimate,
-    chart: &Chart,
-) -> Recommendation {
-    let report = &estimate.report;
+/// The sizes of every garment of `chart` for the estimate whose report is
+/// `report` (see the module docs): an estimate just made, or one stored
+/// with its session.
+pub fn sizes(estimator: &Estimator, report: &EstimateReport, chart: &Chart) -> Recommendation {
     let mut readings = Readings::new();
     let wanted: Vec<&str> = chart
         .garments()
@@ -65,10 +60,10 @@ pub fn sizes(
         // estimator checked them.
         let _ = readings.insert_measured(&c.name, c.value_mm, sd);
     }
-    let others: Vec<(&str, f64)> = inputs
-        .readings
+    let others: Vec<(&str, f64)> = report
+        .inputs
         .iter()
-        .map(|r| (r.name.as_str(), r.value.metres))
+        .map(|c| (c.name.as_str(), c.value_mm / 1000.0))
         .collect();
     for m in &report.prediction.measurements {
         let name = m.name.as_str();
@@ -92,4 +87,48 @@ pub fn sizes(
         }
     }
     recommend(chart, &readings)
+}
+
+/// One line per garment for the result screen: the best size with its
+/// probability, the other size when the customer is between two, and the
+/// primary dimensions that do not fit it ("tight at the chest"), or what is
+/// missing.
+pub fn screen_lines(rec: &Recommendation) -> Vec<String> {
+    rec.garments
+        .iter()
+        .map(|g| match &g.best {
+            None => format!(
+                "{}: no size ({} not known)",
+                g.garment,
+                g.missing
+                    .iter()
+                    .map(|m| m.dimension.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Some(best) => {
+                let mut line = format!(
+                    "{}: {} ({:.0} %)",
+                    g.garment,
+                    best.label,
+                    100.0 * best.probability
+                );
+                if let Some(b) = &g.between {
+                    line.push_str(&format!(" or {}", b.other.label));
+                }
+                let misfits: Vec<&str> = best
+                    .placements
+                    .iter()
+                    .filter(|p| {
+                        p.role == tapeshape_sizes::Role::Primary && !p.interval.contains(p.value_mm)
+                    })
+                    .map(|p| p.words.as_str())
+                    .collect();
+                if !misfits.is_empty() {
+                    line.push_str(&format!("; {}", misfits.join(", ")));
+                }
+                line
+            }
+        })
+        .collect()
 }

@@ -122,6 +122,9 @@ pub struct EstimateSummary {
     pub silhouettes: Silhouettes,
     /// Wall time of the estimate, seconds.
     pub seconds: f64,
+    /// One line per garment of the store's size chart (empty without a
+    /// chart).
+    pub sizes: Vec<String>,
 }
 
 /// Progress of a running estimate, sent to the app as events.

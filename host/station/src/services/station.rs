@@ -33,6 +33,8 @@ pub struct StationServices {
     /// The operator's reading uncertainty (standard deviation, metres), or
     /// `None` for each measurement's ISO 20685-1 class (a skilled measurer).
     reading_tolerance: Option<f64>,
+    /// The store's size chart: the result shows a size per garment.
+    chart: Option<std::sync::Arc<tapeshape_sizes::Chart>>,
 }
 
 impl StationServices {
@@ -48,7 +50,15 @@ impl StationServices {
         Self {
             sessions,
             reading_tolerance: reading_tolerance_m,
+            chart: None,
         }
+    }
+
+    /// The same services showing sizes from `chart` with every result
+    /// (`tapeshape station --chart FILE`).
+    pub fn with_chart(mut self, chart: tapeshape_sizes::Chart) -> Self {
+        self.chart = Some(std::sync::Arc::new(chart));
+        self
     }
 }
 
@@ -246,6 +256,7 @@ impl Services for StationServices {
         let this = StationServices {
             sessions: self.sessions.clone(),
             reading_tolerance: self.reading_tolerance,
+            chart: self.chart.clone(),
         };
         // Forwards the job's progress to the sink, then stores the body and
         // reports it.
@@ -276,7 +287,7 @@ impl Services for StationServices {
                         let seconds = t0.elapsed().as_secs_f64();
                         match this
                             .store(estimator, &request, &est, seconds)
-                            .and_then(|stored| summarise(&stored))
+                            .and_then(|stored| summarise(&stored, this.chart.as_deref()))
                         {
                             Ok(summary) => EstimateEvent::Done(Box::new(summary)),
                             Err(e) => EstimateEvent::Failed(format!(
@@ -325,7 +336,7 @@ impl Services for StationServices {
 
     fn stored_result(&self, session: SessionId) -> Result<Option<EstimateSummary>, ServiceError> {
         match self.stored(session) {
-            Ok((stored, _)) => summarise(&stored).map(Some),
+            Ok((stored, _)) => summarise(&stored, self.chart.as_deref()).map(Some),
             Err(ServiceError::NoEstimate(_)) => Ok(None),
             Err(e) => Err(e),
         }
@@ -348,7 +359,10 @@ impl Cancel for NoCancel {
 /// The interface's view of a stored estimate: the station's report (rows,
 /// plausibility, warnings) and the body's outlines. The same for an
 /// estimate just made and one stored before a restart.
-pub fn summarise(stored: &StoredEstimate) -> Result<EstimateSummary, ServiceError> {
+pub fn summarise(
+    stored: &StoredEstimate,
+    chart: Option<&tapeshape_sizes::Chart>,
+) -> Result<EstimateSummary, ServiceError> {
     let report: ExportReport =
         serde_json::from_str(&stored.report_json).map_err(|source| ServiceError::StoredReport {
             session: stored.session_id,
@@ -365,6 +379,22 @@ pub fn summarise(stored: &StoredEstimate) -> Result<EstimateSummary, ServiceErro
             })
         })
         .collect();
+    // Sizes from the estimator's own report kept with the estimate (a
+    // report it cannot read shows as one line; the rest of the result
+    // stands).
+    let sizes = match chart {
+        None => Vec::new(),
+        Some(chart) => match (
+            estimator(),
+            serde_json::from_value::<tapeshape_estimator::EstimateReport>(report.estimator.clone()),
+        ) {
+            (Ok(e), Ok(r)) => estimate::sizes::screen_lines(&estimate::sizes::sizes(e, &r, chart)),
+            (Err(err), _) => vec![format!("no sizes: {err}")],
+            (_, Err(err)) => vec![format!(
+                "no sizes: the stored report cannot be read ({err})"
+            )],
+        },
+    };
     let pl = &report.plausibility;
     Ok(EstimateSummary {
         session: stored.session_id,
@@ -377,6 +407,7 @@ pub fn summarise(stored: &StoredEstimate) -> Result<EstimateSummary, ServiceErro
         warnings: report.warnings,
         silhouettes: silhouettes(&stored.vertices),
         seconds: stored.seconds,
+        sizes,
     })
 }
 

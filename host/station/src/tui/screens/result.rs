@@ -294,8 +294,26 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     frame.render_widget(silhouette(m, &r.silhouettes.front, " front ", front), front);
     frame.render_widget(silhouette(m, &r.silhouettes.side, " side ", side), side);
 
-    let [table_area, info] =
-        Layout::vertical([Constraint::Min(4), Constraint::Length(7)]).areas(right);
+    let sizes_height = if r.sizes.is_empty() {
+        0
+    } else {
+        u16::try_from(r.sizes.len() + 2).unwrap_or(u16::MAX)
+    };
+    let [table_area, sizes_area, info] = Layout::vertical([
+        Constraint::Min(4),
+        Constraint::Length(sizes_height),
+        Constraint::Length(7),
+    ])
+    .areas(right);
+    if !r.sizes.is_empty() {
+        let lines: Vec<Line> = r.sizes.iter().map(|l| Line::raw(l.clone())).collect();
+        frame.render_widget(
+            Paragraph::new(lines)
+                .wrap(Wrap { trim: true })
+                .block(Block::bordered().title(" Sizes ")),
+            sizes_area,
+        );
+    }
     let u = app.unit;
     let inches = u == Unit::In;
     let rows: Vec<Row> = r
