@@ -178,6 +178,24 @@ fn the_command_line_exports_a_stored_estimate_again() {
         "{text}"
     );
     assert!(!text.contains("the readings changed since"), "{text}");
+    // And its sizes from a chart, from the stored estimate alone.
+    let chart =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/size-charts/womenswear.toml");
+    let sized = common::tapeshape(&data, &["session", "show", "1", "--chart"])
+        .arg(&chart)
+        .output()
+        .unwrap();
+    let sized_text = String::from_utf8_lossy(&sized.stdout);
+    assert!(
+        sized.status.success(),
+        "{sized_text}
+{}",
+        String::from_utf8_lossy(&sized.stderr)
+    );
+    assert!(
+        sized_text.contains("Sizes on \"Example womenswear"),
+        "{sized_text}"
+    );
     let again = common::tapeshape(
         &data,
         &["session", "export", "1", "--format", "glb,obj,ply"],

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::bail;
+use anyhow::{bail, Context as _};
 
 use crate::cli::Global;
 use crate::estimate::MeshFormat;
@@ -48,6 +48,10 @@ pub enum Action {
     Show {
         /// Session id (see `tapeshape sessions`).
         id: i64,
+        /// A store's size chart (TOML, docs/size-charts.md): also print the
+        /// stored estimate's size per garment.
+        #[arg(long, value_name = "FILE")]
+        chart: Option<PathBuf>,
     },
     /// Export the session's stored estimate again (no new estimate): the
     /// body in each format asked for, plus its report.
@@ -82,12 +86,35 @@ pub enum Action {
 pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     let sessions = global.open_sessions()?;
     match args.action {
-        Action::Show { id } => {
+        Action::Show { id, chart } => {
             let store = sessions.store();
+            // The chart first: a wrong one is said before anything prints.
+            let chart = match &chart {
+                Some(p) => {
+                    let e = tapeshape_estimator::Estimator::default_model()?;
+                    Some((e, crate::estimate::sizes::load_chart(p, e)?))
+                }
+                None => None,
+            };
             let detail = store.open_session(SessionId(id))?;
             out!("{}", render(&detail))?;
-            if let Some(e) = store.estimate(SessionId(id))? {
-                outln!("{}", render_estimate(&e, &detail))?;
+            let estimate = store.estimate(SessionId(id))?;
+            if let Some(e) = &estimate {
+                outln!("{}", render_estimate(e, &detail))?;
+            }
+            if let Some((estimator, chart)) = &chart {
+                let Some(e) = &estimate else {
+                    bail!("session {id} has no estimate yet: estimate it first, then ask for its sizes");
+                };
+                let report: crate::estimate::ExportReport = serde_json::from_str(&e.report_json)
+                    .with_context(|| format!("reading session {id}'s stored report"))?;
+                let r: tapeshape_estimator::EstimateReport =
+                    serde_json::from_value(report.estimator).with_context(|| {
+                        format!(
+                            "session {id}'s stored report has no estimator part: estimate it again"
+                        )
+                    })?;
+                outln!("{}", crate::estimate::sizes::sizes(estimator, &r, chart))?;
             }
         }
         Action::Export { id, dir, format } => {
