@@ -465,6 +465,10 @@ pub struct ExportReport {
     /// The estimator's full report (stage values, L-BFGS runs, settings: its
     /// `EstimateReport`).
     pub estimator: serde_json::Value,
+    /// The size per garment on the store's chart, when the station has one
+    /// (`tapeshape station --chart`; [`sizes`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sizes: Option<serde_json::Value>,
 }
 
 /// A plausibility label of the estimator's report by its serialised name
@@ -548,6 +552,7 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
         ),
         files,
         estimator: json_value(r),
+        sizes: None,
     }
 }
 

@@ -137,6 +137,15 @@ fn after_a_restart_the_stored_estimate_shows_and_exports_the_same_body() {
         sized.sizes
     );
     assert!(shown.sizes.is_empty());
+    // The exported report carries them too.
+    let sized_dir = out.path().join("sized");
+    let files = with_sizes.export(id, MeshFormat::Glb, &sized_dir).unwrap();
+    let report = files
+        .iter()
+        .find(|f| f.to_string_lossy().ends_with("report.json"))
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(report).unwrap()).unwrap();
+    assert_eq!(json["sizes"]["garments"].as_array().unwrap().len(), 3);
     // A session without an estimate says so.
     let empty = sessions.start("c-none", "quick", None).unwrap();
     assert_eq!(services.stored_result(empty.id).unwrap(), None);

@@ -331,6 +331,14 @@ impl Services for StationServices {
         })?;
         let header = self.sessions.store().session(session)?;
         report.session = session_info(&header, crate::store::now_ms());
+        if let Some(chart) = &self.chart {
+            if let Ok(r) = serde_json::from_value::<tapeshape_estimator::EstimateReport>(
+                report.estimator.clone(),
+            ) {
+                let rec = estimate::sizes::sizes(estimator, &r, chart);
+                report.sizes = serde_json::to_value(&rec).ok();
+            }
+        }
         Ok(estimate::export_report(&mesh, report, folder, &[format])?)
     }
 
