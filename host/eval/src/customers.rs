@@ -61,6 +61,9 @@ pub struct PersonResult {
     pub flipped: usize,
     /// The estimate's warnings.
     pub warnings: Vec<String>,
+    /// The soft targets' conditional SDs (name, mm): the body's spread where
+    /// nothing was measured.
+    pub soft_sd_mm: Vec<(String, f64)>,
 }
 
 /// One held-out dimension's errors, mm.
@@ -137,7 +140,9 @@ impl CustomersRun {
     }
 }
 
-fn ols(x: &DMatrix<f64>, y: &DVector<f64>) -> Option<DVector<f64>> {
+/// Ordinary least squares with an intercept: `x` is n x k (one row per
+/// subject), `y` n; returns the k coefficients then the intercept.
+pub fn ols(x: &DMatrix<f64>, y: &DVector<f64>) -> Option<DVector<f64>> {
     // Columns of x plus an intercept, solved by SVD (well conditioned
     // enough for a handful of body dimensions in metres).
     let n = x.nrows();
@@ -146,7 +151,9 @@ fn ols(x: &DMatrix<f64>, y: &DVector<f64>) -> Option<DVector<f64>> {
     a.svd(true, true).solve(y, 1e-12).ok()
 }
 
-fn features(s: &Subject, cols: &[String], with_sex: bool) -> Option<Vec<f64>> {
+/// A subject's values (metres) of `cols`, then 1 for a man / 0 for a woman
+/// when `with_sex`; `None` if a column is missing.
+pub fn features(s: &Subject, cols: &[String], with_sex: bool) -> Option<Vec<f64>> {
     let mut v: Vec<f64> = cols.iter().map(|c| s.dim(c)).collect::<Option<_>>()?;
     if with_sex {
         v.push(if s.sex == Sex::Male { 1.0 } else { 0.0 });
@@ -154,7 +161,8 @@ fn features(s: &Subject, cols: &[String], with_sex: bool) -> Option<Vec<f64>> {
     Some(v)
 }
 
-fn predict_row(b: &DVector<f64>, x: &[f64]) -> f64 {
+/// The value `b` (from [`ols`]) predicts for `x`.
+pub fn predict_row(b: &DVector<f64>, x: &[f64]) -> f64 {
     x.iter().zip(b.iter()).map(|(a, c)| a * c).sum::<f64>() + b[b.len() - 1]
 }
 
@@ -226,6 +234,7 @@ pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRu
                 entered: Vec::new(),
                 flipped: 0,
                 warnings: Vec::new(),
+                soft_sd_mm: Vec::new(),
             };
             match estimator.predict(&inputs, &options) {
                 Err(e) => r.refused = Some(e.to_string()),
@@ -242,6 +251,12 @@ pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRu
                             })
                             .collect();
                         r.flipped = est.report.prediction.plausibility.flipped_triangles;
+                        r.soft_sd_mm = est
+                            .report
+                            .soft_targets
+                            .iter()
+                            .map(|t| (t.name.clone(), t.sd_mm))
+                            .collect();
                         r.warnings = est.report.warnings;
                     }
                 },
