@@ -145,8 +145,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let union_index = |name: &str| result.names.iter().position(|n| n == name);
     // garment -> (people, station agrees, regression agrees)
     let mut tally: BTreeMap<(Sex, String), (usize, usize, usize)> = BTreeMap::new();
+    let mut skipped: Vec<String> = Vec::new();
     for (p, s) in result.people.iter().zip(&people) {
         if p.refused.is_some() {
+            skipped.push(format!("{}: refused", s.id));
             continue;
         }
         let chart = chart_of(s.sex);
@@ -159,16 +161,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let mut f = four.clone();
         f.push(if s.sex == Sex::Male { 1.0 } else { 0.0 });
+        let mut bad: Option<String> = None;
         for d in &quick.definitions {
             let Some(v) = d.ansur.as_deref().and_then(|c| s.dim(c)) else {
                 continue;
             };
             let name = d.name.as_str();
-            truth.insert_measured(name, v * 1000.0, tol(name))?;
+            let mut ok = truth.insert_measured(name, v * 1000.0, tol(name)).is_ok();
             if FOUR.contains(&name) {
-                station.insert_measured(name, v * 1000.0, tol(name))?;
-                regression.insert_measured(name, v * 1000.0, tol(name))?;
+                ok &= station.insert_measured(name, v * 1000.0, tol(name)).is_ok();
+                ok &= regression
+                    .insert_measured(name, v * 1000.0, tol(name))
+                    .is_ok();
+                if !ok {
+                    bad = Some(format!("{}: {name} {v} m not usable", s.id));
+                }
                 continue;
+            }
+            if !ok {
+                bad = Some(format!("{}: {name} {v} m not usable", s.id));
             }
             if let Some(j) = union_index(name) {
                 let sd = p
@@ -185,11 +196,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             .map(|r| r.sd * 1000.0)
                     })
                     .unwrap_or(tol(name));
-                station.insert_estimated(name, p.body[j] * 1000.0, sd)?;
+                if let Err(e) = station.insert_estimated(name, p.body[j] * 1000.0, sd) {
+                    bad = Some(format!("{}: station's {name}: {e}", s.id));
+                }
             }
             if let Some((b, sd)) = ls.get(name) {
-                regression.insert_estimated(name, predict_row(b, &f) * 1000.0, sd * 1000.0)?;
+                if let Err(e) =
+                    regression.insert_estimated(name, predict_row(b, &f) * 1000.0, sd * 1000.0)
+                {
+                    bad = Some(format!("{}: regression's {name}: {e}", s.id));
+                }
             }
+        }
+        if let Some(b) = bad {
+            skipped.push(b);
+            continue;
         }
         let (t, st, rg) = (
             best(chart, &truth),
@@ -229,6 +250,12 @@ train-split percentiles (docs/size-charts.md), not any brand's.\n",
             100.0 * *st as f64 / (*n).max(1) as f64,
             100.0 * *rg as f64 / (*n).max(1) as f64
         );
+    }
+    if !skipped.is_empty() {
+        let _ = writeln!(page, "\nLeft out ({}):\n", skipped.len());
+        for k in &skipped {
+            let _ = writeln!(page, "- {k}");
+        }
     }
     match out {
         Some(f) => tapeshape_common::fs::write_atomic(Path::new(&f), page.as_bytes())?,

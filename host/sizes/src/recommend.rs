@@ -491,10 +491,20 @@ pub fn recommend_garment(garment: &Garment, readings: &Readings) -> GarmentFit {
         .enumerate()
         .map(|(index, size)| Score::of(index, size, &primary))
         .collect();
-    let mut ranked: Vec<&Score> = scores.iter().collect();
-    ranked.sort_by(|a, b| a.rank(b));
-    let best = ranked[0];
-    let runner_up = ranked.get(1).copied();
+    // The best and the runner-up by one scan each, not a sort: the ranking
+    // treats probabilities within PROBABILITY_TIE as equal, which is not
+    // transitive, and the standard sort may panic on such an order (found
+    // on the ANSUR II test split). A scan is defined for any comparison.
+    let first = |skip: Option<usize>| {
+        scores
+            .iter()
+            .filter(|s| Some(s.index) != skip)
+            .reduce(|best, s| if s.rank(best).is_lt() { s } else { best })
+    };
+    let Some(best) = first(None) else {
+        return fit;
+    };
+    let runner_up = first(Some(best.index));
 
     fit.beyond = beyond(garment, &primary);
     fit.probabilities = scores

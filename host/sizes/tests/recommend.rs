@@ -425,3 +425,33 @@ dress: no size: hip neither measured nor estimated
 ";
     assert_eq!(r.to_string(), expected);
 }
+
+/// Probabilities a hair apart (within the tie tolerance of their
+/// neighbours but not of each other) once made the sort of sizes panic
+/// ("comparison does not implement a total order") on the ANSUR II test
+/// split (`size_agreement`); the sizes are now ranked by a scan. Forty 1 cm
+/// sizes and a reading far below them with a wide spread give such a chain
+/// of near-ties (the standard sort's check is heuristic, so this does not
+/// always reproduce the old panic); the smallest size must win.
+#[test]
+fn near_tied_probabilities_never_panic_and_the_nearest_size_wins() {
+    let mut text = String::from(
+        "[chart]\nname = \"ties\"\nunits = \"cm\"\n[[garment]]\nname = \"shirt\"\nprimary = [\"chest\"]\nsize = [\n",
+    );
+    for k in 0..40 {
+        text.push_str(&format!(
+            "  {{ label = \"S{k}\", chest = [{}, {}] }},\n",
+            100 + k,
+            101 + k
+        ));
+    }
+    text.push_str("]\n");
+    let chart = tapeshape_sizes::Chart::from_toml_str(&text, "ties", &common::known()).unwrap();
+    for sd in [5.0, 20.0, 60.0, 150.0] {
+        let mut r = Readings::new();
+        r.insert_estimated("chest", 700.0, sd).unwrap();
+        let rec = recommend(&chart, &r);
+        let best = rec.garments[0].best.as_ref().unwrap();
+        assert_eq!(best.label, "S0", "sd {sd}: {best:?}");
+    }
+}
