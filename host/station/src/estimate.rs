@@ -469,6 +469,13 @@ pub struct ExportReport {
     /// (`tapeshape station --chart`; [`sizes`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sizes: Option<serde_json::Value>,
+    /// Careful mode (`tapeshape station --careful`): each measurement's
+    /// readings round by round, the value kept and the technical error of
+    /// measurement, per measurement and for the session
+    /// (`crate::session::careful::CarefulReport`); absent for a session
+    /// that took each measurement once.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub careful: Option<serde_json::Value>,
 }
 
 /// A plausibility label of the estimator's report by its serialised name
@@ -553,6 +560,7 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
         files,
         estimator: json_value(r),
         sizes: None,
+        careful: None,
     }
 }
 

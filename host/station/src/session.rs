@@ -30,10 +30,11 @@ use tapeshape_measure::{MeasureError, MeasurementSet};
 
 use crate::link::ReadingSink;
 use crate::store::{
-    CommitOutcome, Consent, DeviceReading, Mark, ReadingId, ReadingSource, Session, SessionId,
-    SessionStatus, Store, StoreError, StoredEstimate, StoredReading, WriteTx,
+    CommitOutcome, Consent, DeviceReading, Mark, ReadingId, ReadingSource, Session, SessionDetail,
+    SessionId, SessionStatus, Store, StoreError, StoredEstimate, StoredReading, WriteTx,
 };
 
+pub mod careful;
 pub mod outbox;
 
 /// One change to a session, as the session layer records it.
@@ -171,6 +172,49 @@ pub struct SessionView {
     pub marks: Vec<(String, Mark)>,
     /// Its stored estimate, if it has one.
     pub estimate: Option<EstimateInfo>,
+    /// Careful mode's readings, if the session takes each measurement
+    /// twice (then `readings` holds the kept values: see [`careful`]).
+    pub careful: Option<CarefulView>,
+}
+
+/// A careful session's readings as the measuring screen needs them (see
+/// [`careful`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CarefulView {
+    /// Each measurement's allowable error, tenths of a mm (its ISO
+    /// 20685-1 tolerance in the set), in the set's order; a name the set
+    /// lacks has none.
+    pub allowed: Vec<(String, u32)>,
+    /// Each measurement's chain of readings (tenths of a mm, oldest first:
+    /// [`careful::chains`]), in the order of their latest readings.
+    pub chains: Vec<(String, Vec<u32>)>,
+}
+
+impl CarefulView {
+    /// The allowable error of `name`, tenths of a mm.
+    pub fn allowed_of(&self, name: &str) -> Option<u32> {
+        self.allowed
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, a)| *a)
+    }
+
+    /// The chain of `name` (empty when it has no readings).
+    pub fn chain_of(&self, name: &str) -> &[u32] {
+        self.chains
+            .iter()
+            .find(|(n, _)| n == name)
+            .map_or(&[], |(_, c)| c.as_slice())
+    }
+}
+
+/// How a new session is taken.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NewSession {
+    /// The customer's choice about their data (`None`: not asked).
+    pub consent: Option<Consent>,
+    /// Careful mode: each measurement taken twice ([`careful`]).
+    pub careful: bool,
 }
 
 /// An unfinished session the store holds, offered for resuming.
@@ -203,13 +247,26 @@ struct ChangeSignal {
     cond: Condvar,
 }
 
-/// The measurements of `set` (a built-in name or a set file).
-pub fn load_set(set: &str) -> Result<Vec<MeasurementInfo>, SessionError> {
-    let loaded = MeasurementSet::load(set).map_err(|source| SessionError::Set {
+fn load_definitions(set: &str) -> Result<MeasurementSet, SessionError> {
+    MeasurementSet::load(set).map_err(|source| SessionError::Set {
         set: set.to_string(),
         source: Box::new(source),
-    })?;
-    Ok(loaded
+    })
+}
+
+/// Each measurement of `set` with its allowable error in careful mode,
+/// tenths of a mm (its ISO 20685-1 tolerance), in the set's order.
+pub fn allowed_errors(set: &str) -> Result<Vec<(String, u32)>, SessionError> {
+    Ok(load_definitions(set)?
+        .definitions
+        .into_iter()
+        .map(|d| (d.name, careful::allowed_tenth_mm(d.tolerance)))
+        .collect())
+}
+
+/// The measurements of `set` (a built-in name or a set file).
+pub fn load_set(set: &str) -> Result<Vec<MeasurementInfo>, SessionError> {
+    Ok(load_definitions(set)?
         .definitions
         .into_iter()
         .map(|d| MeasurementInfo {
@@ -303,8 +360,31 @@ impl Sessions {
         notes: Option<&str>,
         consent: Option<Consent>,
     ) -> Result<Session, StoreError> {
+        self.create_new(
+            customer,
+            measurement_set,
+            notes,
+            NewSession {
+                consent,
+                careful: false,
+            },
+        )
+    }
+
+    /// [`Sessions::create`] taken as `options` says (consent, careful
+    /// mode), in one change.
+    pub fn create_new(
+        &self,
+        customer: &str,
+        measurement_set: Option<&str>,
+        notes: Option<&str>,
+        options: NewSession,
+    ) -> Result<Session, StoreError> {
         self.change(|tx| {
-            let s = tx.create_session(customer, measurement_set, notes, consent)?;
+            let s = tx.create_session(customer, measurement_set, notes, options.consent)?;
+            if options.careful {
+                tx.set_careful(s.id, true)?;
+            }
             let id = s.id;
             Ok((s, Some(Change::Created { session: id })))
         })
@@ -330,8 +410,35 @@ impl Sessions {
         notes: Option<&str>,
         consent: Option<Consent>,
     ) -> Result<SessionView, SessionError> {
+        self.start_new(
+            customer,
+            set,
+            notes,
+            NewSession {
+                consent,
+                careful: false,
+            },
+        )
+    }
+
+    /// [`Sessions::start`] taken as `options` says (consent, careful mode).
+    pub fn start_new(
+        &self,
+        customer: &str,
+        set: &str,
+        notes: Option<&str>,
+        options: NewSession,
+    ) -> Result<SessionView, SessionError> {
         let measurements = load_set(set)?;
-        let s = self.create_with_consent(customer, Some(set), notes, consent)?;
+        let careful = if options.careful {
+            Some(CarefulView {
+                allowed: allowed_errors(set)?,
+                chains: Vec::new(),
+            })
+        } else {
+            None
+        };
+        let s = self.create_new(customer, Some(set), notes, options)?;
         Ok(SessionView {
             id: s.id,
             customer: s.customer_id,
@@ -343,6 +450,7 @@ impl Sessions {
             superseded: Vec::new(),
             marks: Vec::new(),
             estimate: None,
+            careful,
         })
     }
 
@@ -384,10 +492,8 @@ impl Sessions {
                 });
             }
         }
-        let readings: Vec<(String, u32)> = detail
-            .current_readings()
-            .map(|r| (r.measurement.clone(), r.value_tenth_mm))
-            .collect();
+        let careful = self.careful_view(&detail)?;
+        let readings = kept_of(&detail, careful.as_ref());
         let estimate = self.store.estimate(id)?.map(|e| EstimateInfo {
             made_at_ms: e.made_at_ms,
             current: same_readings(&e.readings, &readings),
@@ -408,7 +514,60 @@ impl Sessions {
             readings,
             marks: self.store.marks(id)?,
             estimate,
+            careful,
         })
+    }
+
+    /// The values session `detail` stands for (name, tenths of a mm), in
+    /// the order of their latest readings: its current readings, or in a
+    /// careful session each measurement's kept value (the median of its
+    /// last finished round; one still in its first round has none yet).
+    /// What an estimate of the session is made from.
+    pub fn kept_readings(
+        &self,
+        detail: &SessionDetail,
+    ) -> Result<Vec<(String, u32)>, SessionError> {
+        Ok(kept_of(detail, self.careful_view(detail)?.as_ref()))
+    }
+
+    fn careful_view(&self, detail: &SessionDetail) -> Result<Option<CarefulView>, SessionError> {
+        let id = detail.session.id;
+        if !self.store.is_careful(id)? {
+            return Ok(None);
+        }
+        let set = detail.session.measurement_set.as_deref().unwrap_or("quick");
+        Ok(Some(CarefulView {
+            allowed: allowed_errors(set)?,
+            chains: careful::chains(detail)
+                .into_iter()
+                .map(|(n, c)| (n, c.iter().map(|r| r.value_tenth_mm).collect()))
+                .collect(),
+        }))
+    }
+
+    /// The careful part of session `detail`'s report (its readings round by
+    /// round, kept values, TEM), or `None` for a session that takes each
+    /// measurement once.
+    pub fn careful_report(
+        &self,
+        detail: &SessionDetail,
+    ) -> Result<Option<careful::CarefulReport>, SessionError> {
+        Ok(self
+            .careful_view(detail)?
+            .map(|v| careful::report(detail, |name| v.allowed_of(name))))
+    }
+
+    /// The round the next reading of `measurement` in careful session
+    /// `detail` goes to (its readings so far and how many it takes), or
+    /// `None` when the session takes each measurement once.
+    pub fn open_round(
+        &self,
+        detail: &SessionDetail,
+        measurement: &str,
+    ) -> Result<Option<careful::Round>, SessionError> {
+        Ok(self
+            .careful_view(detail)?
+            .map(|v| careful::open_round(v.chain_of(measurement), v.allowed_of(measurement))))
     }
 
     /// The unfinished session to offer for resuming after a restart (the
@@ -602,6 +761,22 @@ impl ReadingSink for Sessions {
             };
             Ok((outcome, change))
         })
+    }
+}
+
+/// What `detail` stands for (see [`Sessions::kept_readings`]), given its
+/// careful view (`None`: not a careful session).
+fn kept_of(detail: &SessionDetail, careful: Option<&CarefulView>) -> Vec<(String, u32)> {
+    match careful {
+        None => detail
+            .current_readings()
+            .map(|r| (r.measurement.clone(), r.value_tenth_mm))
+            .collect(),
+        Some(v) => v
+            .chains
+            .iter()
+            .filter_map(|(n, c)| Some((n.clone(), careful::kept(c, v.allowed_of(n))?)))
+            .collect(),
     }
 }
 

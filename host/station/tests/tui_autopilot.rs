@@ -37,6 +37,7 @@ fn answer(fx: Vec<Effect>, seq: &mut u32, log: &mut Vec<Effect>) -> Vec<Event> {
                 superseded: Vec::new(),
                 marks: Vec::new(),
                 estimate: None,
+                careful: None,
                 status: tapeshape::store::SessionStatus::Open,
             })),
             Effect::SimTape { name, slip } => {

@@ -39,6 +39,7 @@ fn a_new_customer_form_creates_a_session_with_the_chosen_set_and_notes() {
                 set,
                 notes,
                 consent,
+                ..
             } => Some((customer.clone(), set.clone(), notes.clone(), *consent)),
             _ => None,
         })
@@ -582,6 +583,7 @@ fn a_resumed_session_shows_the_operator_marks_it_was_left_with() {
             readings: vec![("chest".into(), 5_800)],
             superseded: Vec::new(),
             estimate: None,
+            careful: None,
             status: tapeshape::store::SessionStatus::Open,
             marks: vec![
                 ("stature".into(), Mark::Skipped),
@@ -617,6 +619,7 @@ fn an_unanswered_flag_comes_back_after_a_restart() {
             readings: vec![("chest".into(), 5_800), ("waist".into(), 8_000)],
             superseded: Vec::new(),
             estimate: None,
+            careful: None,
             status: tapeshape::store::SessionStatus::Open,
             marks: vec![("waist".into(), Mark::KeptFlagged)],
         })],

@@ -321,6 +321,7 @@ fn run_interactive(
         export_dir: export_dir.clone(),
         log_dir: data_dir,
         default_set: set.name.clone(),
+        careful: false,
         demo: Some(Box::new(SimDemo {
             tape,
             pilot: Autopilot::new(operator),

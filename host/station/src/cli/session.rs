@@ -98,9 +98,15 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
             };
             let detail = store.open_session(SessionId(id))?;
             out!("{}", render(&detail))?;
+            if let Some(report) = sessions.careful_report(&detail)? {
+                for line in crate::session::careful::lines(&report) {
+                    outln!("{line}")?;
+                }
+            }
             let estimate = store.estimate(SessionId(id))?;
             if let Some(e) = &estimate {
-                outln!("{}", render_estimate(e, &detail))?;
+                let kept = sessions.kept_readings(&detail)?;
+                outln!("{}", render_estimate(e, &detail, &kept))?;
             }
             if let Some((estimator, chart)) = &chart {
                 let Some(e) = &estimate else {
@@ -209,12 +215,10 @@ pub fn render(d: &SessionDetail) -> String {
 }
 
 /// The stored estimate in one line: when, from how many readings, whether
-/// the readings changed since, and how to export it again.
-pub fn render_estimate(e: &StoredEstimate, d: &SessionDetail) -> String {
-    let mut current: Vec<(String, u32)> = d
-        .current_readings()
-        .map(|r| (r.measurement.clone(), r.value_tenth_mm))
-        .collect();
+/// the readings changed since (`kept`: what the session stands for now,
+/// `Sessions::kept_readings`), and how to export it again.
+pub fn render_estimate(e: &StoredEstimate, d: &SessionDetail, kept: &[(String, u32)]) -> String {
+    let mut current: Vec<(String, u32)> = kept.to_vec();
     let mut made_from = e.readings.clone();
     current.sort();
     made_from.sort();

@@ -4,7 +4,7 @@
 //! ([`crate::tui`]). With `--customer`, `--session` or `--resume` it runs
 //! the plain line mode instead, which scripts and end-to-end tests drive:
 //! one line per event for one session. Every line on stdout starts with a fixed word (`session`, `port`,
-//! `connected`, `live`, `next`, `committed`, `complete`, `duplicate`, `gap`, `held`,
+//! `connected`, `live`, `next`, `committed`, `kept`, `complete`, `duplicate`, `gap`, `held`,
 //! `commit-failed`, `fault`, `status`, `button`, `bad-frame`,
 //! `disconnected`, `waiting`, `done`, `stopped`) so it can be followed by
 //! eye or by a program. Logs go to stderr.
@@ -98,6 +98,15 @@ pub struct Args {
     /// when it exists].
     #[arg(long, value_name = "FILE")]
     pub chart: Option<PathBuf>,
+
+    /// Careful mode (ISO 20685-1): every new session takes each
+    /// measurement twice, a third time when the two differ by more than
+    /// the measurement's allowable error (its ISO 20685-1 tolerance), and
+    /// keeps the median (of two: their mean); the report states the
+    /// session's technical error of measurement (TEM). A resumed session
+    /// keeps the mode it was started in.
+    #[arg(long)]
+    pub careful: bool,
 
     /// Syncing to the chain's hub.
     #[command(flatten)]
@@ -193,6 +202,7 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         export_dir,
         log_dir: data_dir,
         default_set,
+        careful: args.careful,
         demo: None,
     };
     let result = crate::tui::runner::run_with_log(options, services, &runtime);
@@ -287,17 +297,41 @@ pub fn plan(
     } else {
         return Ok(None);
     };
+    // What the session has: its current readings, or in careful mode the
+    // measurements with a kept value (one between its readings is still
+    // to take).
+    let detail = sessions.store().open_session(session.id)?;
     let have: std::collections::HashSet<String> = sessions
-        .store()
-        .open_session(session.id)?
-        .current_readings()
-        .map(|r| r.measurement.clone())
+        .kept_readings(&detail)?
+        .into_iter()
+        .map(|(name, _)| name)
         .collect();
     Ok(Some(
         all.into_iter()
             .filter(|p| !have.contains(&p.name))
             .collect(),
     ))
+}
+
+/// Careful mode: which reading of the round is expected next (" reading 2
+/// of 2", " reading 3 of 3: the two differ by 11.0 mm (allowed 9.0 mm)");
+/// empty outside careful mode and for a round not begun.
+fn reading_of(round: Option<&crate::session::careful::Round>) -> String {
+    let Some(r) = round else {
+        return String::new();
+    };
+    let Some(n) = r.next_reading() else {
+        return String::new();
+    };
+    let mut out = format!(" reading {n} of {}", r.needed());
+    if let (Some(apart), Some(allowed), true) = (r.apart(), r.allowed, n > 2) {
+        out.push_str(&format!(
+            ": the two differ by {:.1} mm (allowed {:.1} mm)",
+            f64::from(apart) / 10.0,
+            f64::from(allowed) / 10.0
+        ));
+    }
+    out
 }
 
 /// A port that exists must be a character device; one that does not exist
@@ -322,12 +356,21 @@ fn choose_session(sessions: &Sessions, args: &Args) -> anyhow::Result<Session> {
             // Refuse an unknown set before creating the session.
             tapeshape_measure::MeasurementSet::load(set)?;
         }
-        return Ok(sessions.create_with_consent(
+        return Ok(sessions.create_new(
             customer,
             args.measurement_set.as_deref(),
             None,
-            args.consent,
+            crate::session::NewSession {
+                consent: args.consent,
+                careful: args.careful,
+            },
         )?);
+    }
+    if args.careful {
+        bail!(
+            "--careful applies to a new session (--customer); a resumed session keeps the mode \
+             it was started in"
+        );
     }
     if args.measurement_set.is_some() {
         bail!("--set applies to a new session (--customer); a resumed session keeps its own set");
@@ -386,12 +429,26 @@ pub async fn record(
     let (link, mut events, task) = Link::spawn(&args.port, config, sessions.clone());
     link.set_session(Some(session));
     let mut todo: VecDeque<Planned> = plan.clone().unwrap_or_default().into();
+    // Careful mode names each reading after the measurement the operator
+    // is on (it is taken two or three times), set anew after every commit.
+    let careful = sessions.store().is_careful(session)?;
     link.set_naming(match &plan {
+        Some(_) if careful => match todo.front() {
+            Some(next) => Naming::Current(next.name.clone()),
+            None => Naming::None,
+        },
         Some(p) => Naming::Script(p.iter().map(|p| p.name.clone()).collect()),
         None => Naming::Numbered,
     });
     if let Some(next) = todo.front() {
-        outln!("next {} ({})", next.name, next.label)?;
+        let detail = sessions.store().open_session(session)?;
+        let round = sessions.open_round(&detail, &next.name)?;
+        outln!(
+            "next {} ({}){}",
+            next.name,
+            next.label,
+            reading_of(round.as_ref())
+        )?;
     }
     let mut last_live = None;
     let mut result = Ok(());
@@ -454,11 +511,44 @@ pub async fn record(
                         .map_or(String::from("-"), |t| t.seq.to_string())
                 )?;
                 if plan.is_some() {
-                    if todo.front().map(|p| &p.name) == Some(&reading.measurement) {
+                    let mut again = None;
+                    if careful {
+                        let detail = sessions.store().open_session(session)?;
+                        match sessions.open_round(&detail, &reading.measurement)? {
+                            Some(r) if !r.readings.is_empty() => again = Some(r),
+                            _ => {
+                                if let Some((_, v)) = sessions
+                                    .kept_readings(&detail)?
+                                    .into_iter()
+                                    .find(|(n, _)| *n == reading.measurement)
+                                {
+                                    outln!(
+                                        "kept {} = {} (the median of its last round)",
+                                        reading.measurement,
+                                        format_tenth_mm(v)
+                                    )?;
+                                }
+                            }
+                        }
+                    }
+                    if again.is_none()
+                        && todo.front().map(|p| &p.name) == Some(&reading.measurement)
+                    {
                         todo.pop_front();
+                        if careful {
+                            link.set_naming(match todo.front() {
+                                Some(next) => Naming::Current(next.name.clone()),
+                                None => Naming::None,
+                            });
+                        }
                     }
                     match todo.front() {
-                        Some(next) => outln!("next {} ({})", next.name, next.label)?,
+                        Some(next) => outln!(
+                            "next {} ({}){}",
+                            next.name,
+                            next.label,
+                            reading_of(again.as_ref().filter(|_| next.name == reading.measurement))
+                        )?,
                         None => {
                             outln!("complete every measurement of the session is stored")?;
                             if args.exit_when_complete {

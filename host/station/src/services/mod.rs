@@ -158,6 +158,10 @@ pub enum ServiceError {
     /// The session store refused or failed.
     #[error(transparent)]
     Store(#[from] StoreError),
+    /// The session's measurement set could not be read (careful mode
+    /// needs its allowable errors).
+    #[error(transparent)]
+    Session(crate::session::SessionError),
     /// Writing the export failed.
     #[error(transparent)]
     Export(#[from] ExportError),

@@ -331,6 +331,13 @@ impl Services for StationServices {
         })?;
         let header = self.sessions.store().session(session)?;
         report.session = session_info(&header, crate::store::now_ms());
+        // Careful mode's rounds and TEM, from the readings as stored now.
+        let detail = self.sessions.store().open_session(session)?;
+        report.careful = self
+            .sessions
+            .careful_report(&detail)
+            .map_err(ServiceError::Session)?
+            .and_then(|c| serde_json::to_value(c).ok());
         if let Some(chart) = &self.chart {
             if let Ok(r) = serde_json::from_value::<tapeshape_estimator::EstimateReport>(
                 report.estimator.clone(),

@@ -47,6 +47,7 @@ pub const MIGRATIONS: &[Migration] = &[
     migration!("0003_reading_source.sql"),
     migration!("0004_estimates.sql"),
     migration!("0005_outbox_and_consent.sql"),
+    migration!("0006_careful_mode.sql"),
 ];
 
 /// The schema version this build writes (the number of migrations).

@@ -403,6 +403,17 @@ impl Store {
         session_header(&self.lock(), id)
     }
 
+    /// Does session `id` take each measurement twice (careful mode,
+    /// `crate::session::careful`)? Sessions from before careful mode do not.
+    pub fn is_careful(&self, id: SessionId) -> Result<bool, StoreError> {
+        self.lock()
+            .query_row("SELECT careful FROM sessions WHERE id = ?1", [id.0], |r| {
+                r.get::<_, bool>(0)
+            })
+            .optional()?
+            .ok_or(StoreError::NoSuchSession(id))
+    }
+
     /// All sessions, most recently updated first, with reading counts.
     pub fn list_sessions(&self) -> Result<Vec<SessionSummary>, StoreError> {
         let conn = self.lock();

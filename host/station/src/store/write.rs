@@ -50,6 +50,19 @@ impl<'a> WriteTx<'a> {
         super::session_header(self.tx, SessionId(self.tx.last_insert_rowid()))
     }
 
+    /// Sets whether session `id` takes each measurement twice (careful
+    /// mode); done in the transaction that creates it.
+    pub fn set_careful(&self, id: SessionId, careful: bool) -> Result<(), StoreError> {
+        let n = self.tx.execute(
+            "UPDATE sessions SET careful = ?2 WHERE id = ?1",
+            params![id.0, careful],
+        )?;
+        if n == 0 {
+            return Err(StoreError::NoSuchSession(id));
+        }
+        Ok(())
+    }
+
     fn status(&self, session: SessionId) -> Result<SessionStatus, StoreError> {
         self.tx
             .query_row(

@@ -280,6 +280,8 @@ pub enum Effect {
         notes: Option<String>,
         /// The customer's choice about their data.
         consent: crate::store::Consent,
+        /// Careful mode: each measurement taken twice.
+        careful: bool,
     },
     /// Load a session (reopening a closed one); answer with [`Event::SessionReady`].
     OpenSession(SessionId),

@@ -44,6 +44,8 @@ pub struct RunOptions {
     pub log_dir: PathBuf,
     /// Set preselected for new customers.
     pub default_set: String,
+    /// New sessions take each measurement twice (careful mode).
+    pub careful: bool,
     /// The demo's simulated tape and keyboard (`tapeshape demo`; the kiosk
     /// has none).
     pub demo: Option<Box<dyn Demo>>,
@@ -89,6 +91,7 @@ async fn run_in(
         export_dir,
         log_dir: _,
         default_set,
+        careful,
         demo,
     } = options;
     let (tx, mut rx) = mpsc::unbounded_channel::<Event>();
@@ -121,6 +124,7 @@ async fn run_in(
         id_seed,
         default_set,
     });
+    app.form.careful = careful;
     let mut ctx = Ctx {
         sessions,
         link,
@@ -265,12 +269,16 @@ impl Ctx {
                 set,
                 notes,
                 consent,
+                careful,
             } => {
-                let r = self.sessions.start_with_consent(
+                let r = self.sessions.start_new(
                     &customer,
                     &set,
                     notes.as_deref(),
-                    Some(consent),
+                    crate::session::NewSession {
+                        consent: Some(consent),
+                        careful,
+                    },
                 );
                 self.send(match r {
                     Ok(v) => Event::SessionReady(v),

@@ -109,6 +109,7 @@ pub fn open_session(app: &mut App, readings: &[(&str, u32)]) -> Vec<Effect> {
             superseded: Vec::new(),
             marks: Vec::new(),
             estimate: None,
+            careful: None,
             status: tapeshape::store::SessionStatus::Open,
         })],
     );

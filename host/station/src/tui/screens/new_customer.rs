@@ -93,6 +93,9 @@ pub struct CustomerForm {
     pub customers_started: u64,
     /// Seed of the generated customer ids.
     pub id_seed: u64,
+    /// New sessions take each measurement twice (careful mode,
+    /// `tapeshape station --careful`).
+    pub careful: bool,
 }
 
 impl CustomerForm {
@@ -119,6 +122,7 @@ impl CustomerForm {
             resume: None,
             customers_started: 0,
             id_seed,
+            careful: false,
         }
     }
 
@@ -129,6 +133,7 @@ impl CustomerForm {
             customer: customer_id(self.id_seed, n),
             customers_started: n,
             resume: None,
+            careful: self.careful,
             ..Self::new(self.id_seed, &self.set())
         }
     }
@@ -435,6 +440,7 @@ fn submit(app: &mut App, fx: &mut Vec<Effect>) {
         set,
         notes: Some(notes),
         consent: form.consent,
+        careful: form.careful,
     });
 }
 

@@ -370,6 +370,21 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         Span::styled("plausibility ", st(m, Role::Dim)),
         Span::raw(r.plausibility.clone()),
     ])];
+    // Careful mode: how repeatable the measuring was (ISO 20685-1 TEM).
+    if let Some(t) = app
+        .session
+        .as_ref()
+        .filter(|s| s.careful && s.id == r.session)
+        .and_then(|s| s.careful_tem())
+    {
+        lines.push(Line::from(vec![
+            Span::styled("careful ", st(m, Role::Dim)),
+            Span::raw(format!(
+                "TEM {:.1} mm ({:.2} %) over {} measurement pairs",
+                t.tem_mm, t.relative_percent, t.pairs
+            )),
+        ]));
+    }
     if let Some(w) = r.warnings.first() {
         lines.push(Line::styled(
             format!(

@@ -21,8 +21,8 @@ mod session;
 
 use session::{advance, start_estimate, stored_mark};
 pub use session::{
-    on_checked, on_reading_stored, on_session_ready, Item, ItemState, SessionState, StoreRevert,
-    UndoEntry,
+    on_checked, on_reading_stored, on_session_ready, CarefulItem, Item, ItemState, SessionState,
+    StoreRevert, UndoEntry,
 };
 
 /// What the measuring screen's keys do.
@@ -436,6 +436,18 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 Span::styled("Tape    ", st(m, Role::Dim)),
                 Span::styled(live, st(m, Role::Big)),
             ]));
+            // Careful mode: which reading of how many is expected.
+            if let Some(status) = it.careful_status(app.unit) {
+                let role = if status.starts_with("third") {
+                    Role::Warn
+                } else {
+                    Role::Big
+                };
+                lines.push(Line::from(vec![
+                    Span::styled("Careful ", st(m, Role::Dim)),
+                    Span::styled(status, st(m, role)),
+                ]));
+            }
             if let Some(v) = it.value {
                 let mut spans = vec![
                     Span::styled("Stored  ", st(m, Role::Dim)),

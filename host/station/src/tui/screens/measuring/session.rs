@@ -6,6 +6,7 @@ use tapeshape_estimator::Unit;
 use tapeshape_protocol::UnitShown;
 
 use crate::services::{CheckOutcome, CheckRequest, EstimateRequest};
+use crate::session::careful::{self, Round, Tem};
 use crate::session::{MeasurementInfo, SessionView};
 use crate::store::{Mark, ReadingId, SessionId, SessionStatus, StoredReading};
 use crate::tui::app::{AfterOpen, App, Effect, Level, Screen, ShowLength as _};
@@ -44,6 +45,62 @@ pub struct Item {
     pub unit_slip: Option<String>,
     /// The operator kept a flagged reading.
     pub kept_flagged: bool,
+    /// Careful mode: its readings and allowable error (`None`: the session
+    /// takes each measurement once). `value` is then the kept value.
+    pub careful: Option<CarefulItem>,
+}
+
+/// A measurement of a careful session (see `crate::session::careful`).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CarefulItem {
+    /// Allowable difference of the first two readings of a round, tenths
+    /// of a mm (`None`: the set does not know the measurement).
+    pub allowed: Option<u32>,
+    /// Its readings, oldest first (the store's chain: undone ones left out).
+    pub chain: Vec<u32>,
+}
+
+impl CarefulItem {
+    /// The round the next reading goes to.
+    pub fn open_round(&self) -> Round {
+        careful::open_round(&self.chain, self.allowed)
+    }
+}
+
+impl Item {
+    /// Careful mode: the line that tells the operator which reading is
+    /// expected ("reading 2 of 2", "third reading needed: the two differ by
+    /// 7 mm (allowed 5 mm)"), or what was kept; `None` outside careful mode.
+    pub fn careful_status(&self, unit: Unit) -> Option<String> {
+        let c = self.careful.as_ref()?;
+        let round = c.open_round();
+        let shown: Vec<String> = round.readings.iter().map(|v| unit.format(*v)).collect();
+        Some(match (round.readings.len(), round.apart(), c.allowed) {
+            (2, Some(apart), Some(allowed)) => format!(
+                "third reading needed: the two differ by {} (allowed {})",
+                difference(unit, apart),
+                difference(unit, allowed)
+            ),
+            (0, _, _) => match (self.value, careful::rounds(&c.chain, c.allowed).last()) {
+                (Some(v), Some(last)) => format!(
+                    "kept {} (the median of {})",
+                    unit.format(v),
+                    last.readings
+                        .iter()
+                        .map(|r| unit.format(*r))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+                _ => format!("reading 1 of {}", round.needed()),
+            },
+            (n, _, _) => format!(
+                "reading {} of {} (so far {})",
+                n + 1,
+                round.needed(),
+                shown.join(", ")
+            ),
+        })
+    }
 }
 
 /// What undoing a step changes in the store, so that a resumed session
@@ -92,6 +149,9 @@ pub struct SessionState {
     /// to look at it); going back to measuring opens it again, or the store
     /// would refuse new readings.
     pub marked_done: bool,
+    /// Careful mode: each measurement taken twice (a third time when the
+    /// two are apart), the median kept.
+    pub careful: bool,
 }
 
 impl SessionState {
@@ -121,6 +181,19 @@ impl SessionState {
         }
     }
 
+    /// Careful mode: the session's TEM over every measurement's pairs
+    /// (`crate::session::careful::tem`), if any measurement was taken twice.
+    pub fn careful_tem(&self) -> Option<Tem> {
+        let pairs: Vec<(u32, u32)> = self
+            .items
+            .iter()
+            .filter_map(|i| i.careful.as_ref())
+            .flat_map(|c| careful::rounds(&c.chain, c.allowed))
+            .filter_map(|r| r.pair())
+            .collect();
+        careful::tem(&pairs)
+    }
+
     /// Count of items in `state`.
     pub fn count(&self, state: ItemState) -> usize {
         self.items.iter().filter(|i| i.state == state).count()
@@ -137,6 +210,16 @@ impl SessionState {
         (0..n)
             .map(|k| (start + k) % n)
             .find(|&i| self.items[i].state == ItemState::Todo)
+    }
+}
+
+/// A small difference (tenths of a mm) as the careful status shows it: in
+/// millimetres (a tenth only when there is one), or inches on an inch tape.
+fn difference(unit: Unit, tenth_mm: u32) -> String {
+    match unit {
+        Unit::In => unit.format(tenth_mm),
+        _ if tenth_mm % 10 == 0 => format!("{} mm", tenth_mm / 10),
+        _ => format!("{:.1} mm", f64::from(tenth_mm) / 10.0),
     }
 }
 
@@ -161,17 +244,22 @@ fn tape_unit(shown: UnitShown) -> Unit {
 
 /// A session was created or opened: it becomes the one measured.
 pub fn on_session_ready(app: &mut App, view: SessionView, fx: &mut Vec<Effect>) {
+    let careful_session = view.careful.is_some();
     let mut items: Vec<Item> = view
         .measurements
         .into_iter()
         .map(|info| Item {
-            info,
             state: ItemState::Todo,
             value: None,
             previous: Vec::new(),
             flag: None,
             unit_slip: None,
             kept_flagged: false,
+            careful: view.careful.as_ref().map(|c| CarefulItem {
+                allowed: c.allowed_of(&info.name),
+                chain: c.chain_of(&info.name).to_vec(),
+            }),
+            info,
         })
         .collect();
     for (name, v) in &view.superseded {
@@ -211,8 +299,18 @@ pub fn on_session_ready(app: &mut App, view: SessionView, fx: &mut Vec<Effect>) 
         // A closed session (opened to look at it) opens again when the
         // operator goes back to measuring it.
         marked_done: view.status != SessionStatus::Open,
+        careful: careful_session,
     };
-    s.current = s.next_todo(None);
+    // A careful measurement left between its readings comes first.
+    s.current = s
+        .items
+        .iter()
+        .position(|i| {
+            i.careful
+                .as_ref()
+                .is_some_and(|c| !c.open_round().readings.is_empty())
+        })
+        .or_else(|| s.next_todo(None));
     s.selected = s.current.unwrap_or(0);
     let id = s.id;
     app.session = Some(s);
@@ -290,6 +388,57 @@ pub fn on_reading_stored(
     };
     let before = s.items[i].clone();
     let mut reverts = vec![StoreRevert::Withdraw(reading.id)];
+    // Careful mode: the reading joins its round; only a finished round's
+    // median goes on as the measurement's value (checked, estimated).
+    let mut v = v;
+    if let Some(c) = s.items[i].careful.as_mut() {
+        c.chain.push(v);
+        let rounds = careful::rounds(&c.chain, c.allowed);
+        let round = rounds.last().cloned().unwrap_or(Round {
+            readings: Vec::new(),
+            allowed: c.allowed,
+        });
+        match round.kept() {
+            Some(kept) => v = kept,
+            None => {
+                let mut reverts = reverts;
+                if before.state == ItemState::Skipped {
+                    reverts.push(StoreRevert::Mark(
+                        before.info.name.clone(),
+                        Some(Mark::Skipped),
+                    ));
+                    fx.push(Effect::SetMark {
+                        session: s.id,
+                        name: before.info.name.clone(),
+                        mark: None,
+                    });
+                    s.items[i].state = ItemState::Todo;
+                }
+                s.undo.push(UndoEntry {
+                    what: format!("reading of {}", before.info.label),
+                    reverts,
+                    item: Some((i, before)),
+                    current: s.current,
+                });
+                s.current = Some(i);
+                s.selected = i;
+                let item = &s.items[i];
+                let label = item.info.label.clone();
+                let status = item.careful_status(app.unit).unwrap_or_default();
+                let stored = app.unit.format(reading.value_tenth_mm);
+                let level = if round.readings.len() >= 2 {
+                    Level::Warn
+                } else {
+                    Level::Info
+                };
+                app.note(
+                    level,
+                    format!("Stored {label} = {stored}; {status}: measure it again"),
+                );
+                return;
+            }
+        }
+    }
     if let Some(mark) = stored_mark(&before) {
         // A new reading replaces a skip or a kept flag.
         reverts.push(StoreRevert::Mark(before.info.name.clone(), Some(mark)));
@@ -334,7 +483,14 @@ pub fn on_reading_stored(
         Some(w) => format!(" (retake; was {})", app.unit.format(w)),
         None => String::new(),
     };
-    let text = format!("Stored {label} = {}{retake}{shown}", app.unit.format(v));
+    let text = match s.items[i].careful.as_ref() {
+        Some(_) => format!(
+            "Stored {label} = {}; kept {}, the median of this round{retake}{shown}",
+            app.unit.format(reading.value_tenth_mm),
+            app.unit.format(v)
+        ),
+        None => format!("Stored {label} = {}{retake}{shown}", app.unit.format(v)),
+    };
     app.note(Level::Info, text);
 }
 
