@@ -218,7 +218,7 @@ impl SessionState {
 fn difference(unit: Unit, tenth_mm: u32) -> String {
     match unit {
         Unit::In => unit.format(tenth_mm),
-        _ if tenth_mm % 10 == 0 => format!("{} mm", tenth_mm / 10),
+        _ if tenth_mm.is_multiple_of(10) => format!("{} mm", tenth_mm / 10),
         _ => format!("{:.1} mm", f64::from(tenth_mm) / 10.0),
     }
 }
