@@ -68,6 +68,11 @@ fn main() -> ExitCode {
         }
     };
     cli::init_logging(args.global.verbose);
+    // The operator text's language, once for the whole run (`--lang`, else
+    // the locale). The first choice cannot clash with an earlier one.
+    if let Err(e) = tapeshape::i18n::choose(args.global.lang()) {
+        tracing::warn!("{e}");
+    }
     // Everything the program writes may hold customer data (the store, its
     // exports, cards, logs): owner-only, 0600 files and 0700 folders.
     rustix::process::umask(rustix::fs::Mode::from_raw_mode(0o077));

@@ -4,9 +4,12 @@
 //! Why a module of its own at the bottom of the station: the line mode, the
 //! terminal interface and the `session` commands print the same things, and
 //! a front end must not import another front end to share a format (that is
-//! how `tui -> cli` import circles start). It imports nothing of the station.
+//! how `tui -> cli` import circles start). It imports nothing of the station
+//! but the catalogue of its words ([`crate::i18n`]).
 
 use tapeshape_protocol::{Fault, RejectReason};
+
+use crate::i18n::tr;
 
 /// Formats milliseconds since the Unix epoch as an RFC 3339 UTC time to the
 /// second (`2026-11-22T05:30:00Z`).
@@ -21,7 +24,10 @@ pub fn format_tenth_mm(v: u32) -> String {
     format!("{}.{} mm", v / 10, v % 10)
 }
 
-/// A device fault in operator words (what happened and what to do).
+/// A device fault in operator words (what happened and what to do): the
+/// fault's fixed word (`queue-full`, `tape-silent`, ...: English in every
+/// language, the line mode's scripts match it), a colon, then the words in
+/// the chosen language ([`crate::i18n`]).
 pub fn describe_fault(f: &Fault) -> String {
     match *f {
         Fault::QueueFull {
@@ -29,46 +35,62 @@ pub fn describe_fault(f: &Fault) -> String {
             refused_value_tenth_mm,
             ..
         } => format!(
-            "queue-full: the tape's queue ({capacity}) is full; {} was NOT recorded, take it again",
-            format_tenth_mm(refused_value_tenth_mm)
+            "queue-full: {}",
+            tr!(
+                "fault-queue-full",
+                capacity = capacity,
+                value = format_tenth_mm(refused_value_tenth_mm)
+            )
         ),
-        Fault::QueueRecovered { queue_len } => format!("queue-recovered ({queue_len} held)"),
+        Fault::QueueRecovered { queue_len } => format!(
+            "queue-recovered ({})",
+            tr!("fault-queue-recovered", held = queue_len)
+        ),
         Fault::TapeSilent { silent_ms } => format!(
-            "tape-silent: no line from the tape for {:.1} s; check its cable",
-            f64::from(silent_ms) / 1000.0
+            "tape-silent: {}",
+            tr!(
+                "fault-tape-silent",
+                seconds = format!("{:.1}", f64::from(silent_ms) / 1000.0)
+            )
         ),
         Fault::TapeRecovered => "tape-recovered".to_string(),
         Fault::LineRejected {
             reason,
             rejected_total,
         } => format!(
-            "line-rejected: the tape sent {} ({rejected_total} since boot); \
-             if this repeats, check the tape's cable",
-            reject_words(reason)
+            "line-rejected: {}",
+            tr!(
+                "fault-line-rejected",
+                what = reject_words(reason),
+                total = rejected_total
+            )
         ),
         Fault::VersionMismatch { host, device } => format!(
-            "version-mismatch: the tape speaks protocol {}.{}, it was greeted with {}.{}",
-            device.major, device.minor, host.major, host.minor
+            "version-mismatch: {}",
+            tr!(
+                "fault-version-mismatch",
+                device = format!("{}.{}", device.major, device.minor),
+                host = format!("{}.{}", host.major, host.minor)
+            )
         ),
-        Fault::HostFrameBad { total } => {
-            format!("host-frame-bad: the tape dropped a frame from us ({total} since boot)")
-        }
+        Fault::HostFrameBad { total } => format!(
+            "host-frame-bad: {}",
+            tr!("fault-host-frame-bad", total = total)
+        ),
     }
 }
 
-/// Why the firmware refused a tape line, in words.
+/// Why the firmware refused a tape line, in words (the chosen language).
 pub fn reject_words(reason: RejectReason) -> String {
     match reason {
-        RejectReason::Garbage => "something that is not a tape line".to_string(),
-        RejectReason::Partial { len } => format!("a cut-off line ({len} of 19 characters)"),
-        RejectReason::Overlong => "a line longer than 19 characters".to_string(),
-        RejectReason::BadField { field } => {
-            format!("a line whose field {field} is not what a tape sends")
-        }
-        RejectReason::Negative => "a negative length".to_string(),
-        RejectReason::OutOfRange { value_tenth_mm } => format!(
-            "a length it cannot measure ({})",
-            format_tenth_mm(value_tenth_mm)
+        RejectReason::Garbage => tr!("reject-garbage"),
+        RejectReason::Partial { len } => tr!("reject-partial", len = len),
+        RejectReason::Overlong => tr!("reject-overlong"),
+        RejectReason::BadField { field } => tr!("reject-bad-field", field = field),
+        RejectReason::Negative => tr!("reject-negative"),
+        RejectReason::OutOfRange { value_tenth_mm } => tr!(
+            "reject-out-of-range",
+            value = format_tenth_mm(value_tenth_mm)
         ),
     }
 }

@@ -10,16 +10,17 @@ use std::path::{Path, PathBuf};
 /// before it (and itself). `check` and `estimate` share a rank: neither
 /// imports the other.
 const RANKS: &[(&str, u32)] = &[
-    ("text", 0),
-    ("store", 1),
-    ("link", 2),
-    ("session", 3),
-    ("check", 4),
-    ("estimate", 4),
-    ("sync", 4),
-    ("services", 5),
-    ("tui", 6),
-    ("cli", 7),
+    ("i18n", 0),
+    ("text", 1),
+    ("store", 2),
+    ("link", 3),
+    ("session", 4),
+    ("check", 5),
+    ("estimate", 5),
+    ("sync", 5),
+    ("services", 6),
+    ("tui", 7),
+    ("cli", 8),
 ];
 
 fn rank(module: &str) -> Option<u32> {

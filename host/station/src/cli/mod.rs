@@ -70,9 +70,21 @@ pub struct Global {
     /// TAPESHAPE_LOG environment variable (tracing filter syntax) overrides.
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,
+
+    /// Language of the operator text (the kiosk screens, device faults)
+    /// [default: from LC_ALL, LC_MESSAGES or LANG: German for de_*, else
+    /// English]. The line mode's fixed words that scripts read (`session`,
+    /// `port`, `fault queue-full`, ...) stay English.
+    #[arg(long, global = true, value_name = "LANG")]
+    pub lang: Option<crate::i18n::Lang>,
 }
 
 impl Global {
+    /// The language of the operator text: `--lang`, else the locale's.
+    pub fn lang(&self) -> crate::i18n::Lang {
+        self.lang.unwrap_or_else(crate::i18n::Lang::from_env)
+    }
+
     /// The data directory (`--data-dir`, `TAPESHAPE_DATA_DIR` or the user's).
     pub fn data_dir(&self) -> anyhow::Result<PathBuf> {
         Ok(resolve_data_dir(self.data_dir.as_deref())?)

@@ -29,6 +29,7 @@ use tapeshape_estimator::Unit;
 use tapeshape_protocol::UnitShown;
 
 use crate::estimate::MeshFormat;
+use crate::i18n::{msg, tr};
 use crate::link::LinkEvent;
 use crate::services::{
     CheckOutcome, CheckRequest, EstimateEvent, EstimateRequest, EstimateSummary,
@@ -67,15 +68,15 @@ pub enum Screen {
 }
 
 impl Screen {
-    /// Title shown in the top bar.
-    pub fn title(self) -> &'static str {
+    /// Title shown in the top bar (the chosen language).
+    pub fn title(self) -> String {
         match self {
-            Screen::Device => "Device",
-            Screen::NewCustomer => "New customer",
-            Screen::Measuring => "Measuring",
-            Screen::Estimating => "Estimating",
-            Screen::Result => "Result",
-            Screen::History => "History",
+            Screen::Device => tr!("screen-device"),
+            Screen::NewCustomer => tr!("screen-new-customer"),
+            Screen::Measuring => tr!("screen-measuring"),
+            Screen::Estimating => tr!("screen-estimating"),
+            Screen::Result => tr!("screen-result"),
+            Screen::History => tr!("screen-history"),
         }
     }
 }
@@ -492,12 +493,17 @@ pub enum Global {
 /// The keys that work anywhere, as they stand on the screen shown.
 fn global_bindings(app: &App) -> Vec<Binding<Global>> {
     let mut b = vec![
-        Binding::help_only(&[Key::Ctrl('c')], "Ctrl-C", "quit at once", Global::QuitNow),
+        Binding::help_only(
+            &[Key::Ctrl('c')],
+            msg!("key-ctrl-c"),
+            msg!("global-quit-now-help"),
+            Global::QuitNow,
+        ),
         Binding::new(
             &[ch('?')],
             "?",
-            "help",
-            "this help (any key closes it)",
+            msg!("global-help"),
+            msg!("global-help-help"),
             Global::Help,
         ),
     ];
@@ -505,8 +511,8 @@ fn global_bindings(app: &App) -> Vec<Binding<Global>> {
         b.push(Binding::new(
             &[ch('d')],
             "d",
-            "device",
-            "the device screen: the tape's connection, versions and faults",
+            msg!("global-device"),
+            msg!("global-device-help"),
             Global::Device,
         ));
     }
@@ -514,16 +520,16 @@ fn global_bindings(app: &App) -> Vec<Binding<Global>> {
         b.push(Binding::new(
             &[ch('h')],
             "h",
-            "history",
-            "the history of sessions",
+            msg!("global-history"),
+            msg!("global-history-help"),
             Global::History,
         ));
     }
     b.push(Binding::new(
         &[ch('q')],
         "q",
-        "quit",
-        "quit, pressed twice (every reading taken is already stored)",
+        msg!("global-quit"),
+        msg!("global-quit-help"),
         Global::Quit,
     ));
     b
@@ -537,10 +543,7 @@ pub fn update(app: &mut App, event: Event) -> Vec<Effect> {
         Event::TakenOver => {
             if app.demo.is_some() {
                 app.demo = Some(Pilot::Person);
-                app.note(
-                    Level::Info,
-                    "You have the keyboard: the simulated operator stopped (? for keys)",
-                );
+                app.note(Level::Info, tr!("notice-taken-over"));
             }
         }
         Event::Link(ev) => on_link(app, ev, &mut fx),
@@ -612,10 +615,7 @@ fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                 fx.push(Effect::Quit);
             } else {
                 app.quit_armed = true;
-                app.note(
-                    Level::Warn,
-                    "Press q again to quit (every reading taken is already stored)",
-                );
+                app.note(Level::Warn, tr!("notice-quit-again"));
             }
         }
         Some(Global::Help) => app.help = true,
@@ -676,19 +676,24 @@ fn on_link(app: &mut App, ev: LinkEvent, fx: &mut Vec<Effect>) {
         }
         LinkEvent::Gap { expected, got, .. } => app.note(
             Level::Warn,
-            format!("Tape sent reading {got} before {expected}: waiting for it to resend"),
+            tr!(
+                "notice-gap",
+                got = got.to_string(),
+                expected = expected.to_string()
+            ),
         ),
         LinkEvent::ReadingUnassigned { reading, .. } => {
-            let text = format!(
-                "The tape holds a reading ({}): it is kept on the tape until a measurement is chosen",
-                app.unit.format(reading.value_tenth_mm)
+            let text = tr!(
+                "notice-unassigned",
+                value = app.unit.format(reading.value_tenth_mm)
             );
             app.note(Level::Warn, text);
         }
         LinkEvent::CommitFailed { reading, error } => {
-            let text = format!(
-                "Could not store {} ({error}); the tape keeps it",
-                app.unit.format(reading.value_tenth_mm)
+            let text = tr!(
+                "notice-commit-failed",
+                value = app.unit.format(reading.value_tenth_mm),
+                error = error.to_string()
             );
             app.note(Level::Error, text);
         }

@@ -6,8 +6,17 @@
 //! the other). Here a screen's handler looks the pressed key up in the same
 //! list the footer and the help are drawn from (gitui's `commands`), so they
 //! cannot disagree.
+//!
+//! A binding's words are message ids of the catalogue ([`crate::i18n`]),
+//! written with `msg!("id")`, and formatted where they are drawn
+//! ([`Hint::shown_text`], [`Hint::footer_text`], [`Hint::help_text`]), so
+//! that the lists stay plain data and the language is the drawing's. A word
+//! that is no id (a single key such as `r`, or the English words of a screen
+//! not yet converted) is drawn as it is.
 
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+
+use crate::i18n;
 
 /// A key a binding answers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,16 +52,18 @@ pub const fn code(c: KeyCode) -> Key {
     Key::Code(c)
 }
 
-/// One thing a screen does on a key, with its words.
+/// One thing a screen does on a key, with its words (message ids, see the
+/// module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Binding<A> {
     /// The keys that do it.
     pub keys: Vec<Key>,
-    /// How the key is written in the footer and the help ("Enter", "r", "<-/->").
+    /// How the key is written in the footer and the help (`key-enter`,
+    /// `r`, `key-left-right`).
     pub shown: &'static str,
-    /// The footer's word for it; `None`: in the help only.
+    /// The footer's word for it (an id); `None`: in the help only.
     pub footer: Option<&'static str>,
-    /// The help's line for it.
+    /// The help's line for it (an id).
     pub help: &'static str,
     /// What it does.
     pub action: A,
@@ -105,7 +116,7 @@ pub fn lookup<'a, A>(bindings: &'a [Binding<A>], key: &KeyEvent) -> Option<&'a A
         .map(|b| &b.action)
 }
 
-/// A binding's words, as the footer and the help draw them.
+/// A binding's words (message ids), as the footer and the help draw them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Hint {
     /// The key as written.
@@ -114,6 +125,23 @@ pub struct Hint {
     pub footer: Option<&'static str>,
     /// The help's line.
     pub help: &'static str,
+}
+
+impl Hint {
+    /// The key as written, in the chosen language.
+    pub fn shown_text(&self) -> String {
+        i18n::text(self.shown, None)
+    }
+
+    /// The footer's word in the chosen language (`None`: help only).
+    pub fn footer_text(&self) -> Option<String> {
+        self.footer.map(|f| i18n::text(f, None))
+    }
+
+    /// The help's line in the chosen language.
+    pub fn help_text(&self) -> String {
+        i18n::text(self.help, None)
+    }
 }
 
 /// The words of every binding in `bindings`.

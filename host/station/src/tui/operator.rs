@@ -23,6 +23,7 @@ use tapeshape_sim::tape::{play, Script, Step, TapeLine, TapeTiming};
 use tokio::io::AsyncWriteExt;
 use tokio::sync::mpsc;
 
+use crate::i18n::tr;
 use crate::tui::app::{App, Event, FormField, Item, ItemState, Screen};
 
 /// The simulated tape could not measure.
@@ -306,6 +307,10 @@ impl crate::tui::runner::Demo for SimDemo {
     }
 
     fn measure(&self, name: &str, slip: bool) -> Result<(), String> {
-        self.tape.measure(name, slip).map_err(|e| e.to_string())
+        // The operator's words for it (the error's own are English, for logs).
+        self.tape.measure(name, slip).map_err(|e| match e {
+            SimTapeError::NoValue(name) => tr!("sim-no-value", name = name),
+            SimTapeError::Stopped => tr!("sim-stopped"),
+        })
     }
 }

@@ -21,6 +21,7 @@ use anyhow::Context as _;
 use crossterm::event::{self as ct, KeyEventKind};
 use tokio::sync::mpsc;
 
+use crate::i18n::tr;
 use crate::link::{Link, LinkConfig, LinkHandle, Naming};
 use crate::services::{Cancel, EstimateEvent, EstimateRequest, SharedServices};
 use crate::session::Sessions;
@@ -71,7 +72,7 @@ pub trait Demo: Send {
 /// Runs the interface in the current terminal until the operator quits.
 /// Must run inside a tokio runtime.
 pub async fn run(options: RunOptions, services: SharedServices) -> anyhow::Result<()> {
-    let mut terminal = ratatui::try_init().context("setting up the terminal")?;
+    let mut terminal = ratatui::try_init().with_context(|| tr!("run-terminal-failed"))?;
     let result = run_in(&mut terminal, options, services).await;
     ratatui::restore();
     result
@@ -204,23 +205,25 @@ fn spawn_input(
                         }
                         Ok(_) => {}
                         Err(e) => {
-                            let _ = tx.send(Event::Failed(format!(
-                                "reading the keyboard: {e}; restart the station"
+                            let _ = tx.send(Event::Failed(tr!(
+                                "run-keyboard-failed",
+                                error = e.to_string()
                             )));
                             break;
                         }
                     },
                     Ok(false) => {}
                     Err(e) => {
-                        let _ = tx.send(Event::Failed(format!(
-                            "reading the keyboard: {e}; restart the station"
+                        let _ = tx.send(Event::Failed(tr!(
+                            "run-keyboard-failed",
+                            error = e.to_string()
                         )));
                         break;
                     }
                 }
             }
         })
-        .context("starting the keyboard thread")
+        .with_context(|| tr!("run-keyboard-thread-failed"))
 }
 
 struct Ctx {
@@ -293,7 +296,11 @@ impl Ctx {
                 };
                 self.send(match r {
                     Ok(v) => Event::SessionReady(v),
-                    Err(e) => Event::Failed(format!("opening session {id}: {e}")),
+                    Err(e) => Event::Failed(tr!(
+                        "run-open-failed",
+                        id = id.to_string(),
+                        error = e.to_string()
+                    )),
                 });
             }
             Effect::CaptureLive {
@@ -310,7 +317,7 @@ impl Ctx {
                             reading,
                             unit_shown,
                         },
-                        Err(e) => Event::Failed(format!("storing the captured value: {e}")),
+                        Err(e) => Event::Failed(tr!("run-capture-failed", error = e.to_string())),
                     };
                     let _ = tx.send(ev);
                 });
@@ -413,9 +420,9 @@ impl Ctx {
                 tokio::task::spawn_blocking(move || {
                     let r = match services.stored_result(session) {
                         Ok(Some(summary)) => Ok(summary),
-                        Ok(None) => Err(format!(
-                            "session {session} has no stored estimate: press e to estimate it"
-                        )),
+                        Ok(None) => {
+                            Err(tr!("run-no-stored-estimate", session = session.to_string()))
+                        }
                         Err(e) => Err(e.to_string()),
                     };
                     let _ = tx.send(Event::ResultLoaded(r));
@@ -423,7 +430,11 @@ impl Ctx {
             }
             Effect::WithdrawReading(id) => {
                 if let Err(e) = self.sessions.withdraw(id) {
-                    self.send(Event::Failed(format!("withdrawing reading {id}: {e}")));
+                    self.send(Event::Failed(tr!(
+                        "run-withdraw-failed",
+                        id = id.to_string(),
+                        error = e.to_string()
+                    )));
                 }
             }
             Effect::SetMark {
@@ -432,21 +443,34 @@ impl Ctx {
                 mark,
             } => {
                 if let Err(e) = self.sessions.set_mark(session, &name, mark) {
-                    self.send(Event::Failed(format!("storing the mark on {name}: {e}")));
+                    self.send(Event::Failed(tr!(
+                        "run-mark-failed",
+                        name = name.as_str(),
+                        error = e.to_string()
+                    )));
                 }
             }
             Effect::SetStatus(id, status) => {
                 if let Err(e) = self.sessions.set_status(id, status) {
-                    self.send(Event::Failed(format!("marking session {id} {status}: {e}")));
+                    self.send(Event::Failed(tr!(
+                        "run-status-failed",
+                        id = id.to_string(),
+                        status = status.to_string(),
+                        error = e.to_string()
+                    )));
                 }
             }
             Effect::LoadHistory => match self.sessions.store().list_sessions() {
                 Ok(list) => self.send(Event::History(list)),
-                Err(e) => self.send(Event::Failed(format!("reading the sessions: {e}"))),
+                Err(e) => self.send(Event::Failed(tr!("run-list-failed", error = e.to_string()))),
             },
             Effect::DeleteSession(id) => {
                 if let Err(e) = self.sessions.delete(id) {
-                    self.send(Event::Failed(format!("deleting session {id}: {e}")));
+                    self.send(Event::Failed(tr!(
+                        "run-delete-failed",
+                        id = id.to_string(),
+                        error = e.to_string()
+                    )));
                 }
                 self.perform(Effect::LoadHistory);
             }
@@ -456,9 +480,7 @@ impl Ctx {
                         self.send(Event::Failed(e));
                     }
                 }
-                None => self.send(Event::Failed(
-                    "there is no simulated tape outside the demo".into(),
-                )),
+                None => self.send(Event::Failed(tr!("run-no-sim-tape"))),
             },
             Effect::Quit => {}
         }
@@ -484,7 +506,7 @@ pub fn run_with_log(
             .mode(0o600)
             .open(&log_path)
     }
-    .with_context(|| format!("opening the log file {}", log_path.display()))?;
+    .with_context(|| tr!("run-log-open-failed", path = log_path.display().to_string()))?;
     let before = log.metadata().map(|m| m.len()).unwrap_or(0);
     let saved = rustix::io::dup(std::io::stderr().as_fd()).context("saving stderr")?;
     rustix::stdio::dup2_stderr(log.as_fd()).context("sending stderr to the log file")?;
@@ -499,14 +521,16 @@ pub fn run_with_log(
     restored.context("restoring stderr")?;
     let after = std::fs::metadata(&log_path).map(|m| m.len()).unwrap_or(0);
     if after > before {
-        eprintln!("log messages of this run: {}", log_path.display());
+        eprintln!(
+            "{}",
+            tr!("run-log-written", path = log_path.display().to_string())
+        );
     }
     match result {
         Ok(r) => r,
         Err(_) => anyhow::bail!(
-            "the interface stopped on an internal error (details in {}); every reading \
-             taken is stored: start again and resume the session",
-            log_path.display()
+            "{}",
+            tr!("run-internal-error", path = log_path.display().to_string())
         ),
     }
 }

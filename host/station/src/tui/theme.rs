@@ -57,19 +57,21 @@ pub fn st(mono: bool, role: Role) -> Style {
     }
 }
 
-/// A line of key hints: each key in the key style, then its footer word.
+/// A line of key hints: each key in the key style, then its footer word
+/// (both in the chosen language).
 pub fn hint_line(mono: bool, hints: &[Hint]) -> Line<'static> {
     let mut spans = Vec::new();
     for h in hints {
-        if let Some(word) = h.footer {
-            spans.push(Span::styled(h.shown, st(mono, Role::Key)));
+        if let Some(word) = h.footer_text() {
+            spans.push(Span::styled(h.shown_text(), st(mono, Role::Key)));
             spans.push(Span::raw(format!(" {word}  ")));
         }
     }
     Line::from(spans)
 }
 
-/// A hint written out in place (popups), with its own words.
+/// A hint written out in place (popups), with its own words (message ids,
+/// or words drawn as they are).
 pub fn hint(shown: &'static str, footer: &'static str) -> Hint {
     Hint {
         shown,
@@ -78,8 +80,9 @@ pub fn hint(shown: &'static str, footer: &'static str) -> Hint {
     }
 }
 
-/// "key        value" with the key dimmed.
-pub fn kv<'a>(mono: bool, k: &'a str, v: String) -> Line<'a> {
+/// "key        value" with the key dimmed (`k`: text already in the
+/// chosen language).
+pub fn kv(mono: bool, k: &str, v: String) -> Line<'static> {
     Line::from(vec![
         Span::styled(format!("{k:<16}"), st(mono, Role::Dim)),
         Span::raw(v),

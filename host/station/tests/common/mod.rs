@@ -162,6 +162,8 @@ pub fn tapeshape(data: &Path, args: &[&str]) -> Command {
     cmd.args(args)
         .env("TAPESHAPE_DATA_DIR", data)
         .env_remove("TAPESHAPE_LOG")
+        // Operator text in English whatever the developer's locale.
+        .env("LC_ALL", "C")
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     cmd

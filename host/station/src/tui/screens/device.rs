@@ -12,6 +12,7 @@ use ratatui::widgets::{Block, Paragraph, Wrap};
 use ratatui::Frame;
 use tapeshape_protocol::{DeviceHello, Live};
 
+use crate::i18n::{msg, tr};
 use crate::link::LinkEvent;
 use crate::tui::app::{action, App, Global, Level, ShowLength as _};
 use crate::tui::keys::{ch, code, hints as hints_of, Binding, Hint};
@@ -91,10 +92,7 @@ impl DeviceState {
                 self.connection = Connection::Connected;
                 self.hello = Some(h);
                 if was_down {
-                    return Some((
-                        Level::Info,
-                        "Tape reconnected: carry on (readings it held are being stored)".into(),
-                    ));
+                    return Some((Level::Info, tr!("device-reconnected")));
                 }
             }
             LinkEvent::VersionMismatch(m) => self.connection = Connection::Mismatch(m.to_string()),
@@ -134,16 +132,17 @@ impl DeviceState {
         None
     }
 
-    /// The connection in a word or two, and how to show it.
-    pub fn word(&self) -> (&'static str, Role) {
+    /// The connection in a word or two (the chosen language), and how to
+    /// show it.
+    pub fn word(&self) -> (String, Role) {
         match &self.connection {
-            Connection::Starting => ("starting", Role::Dim),
-            Connection::WaitingForPort(_) => ("no tape (waiting)", Role::Warn),
-            Connection::PortOpen(_) => ("port open, handshake", Role::Warn),
-            Connection::Connected => ("connected", Role::Ok),
-            Connection::Mismatch(_) => ("WRONG VERSION", Role::Bad),
-            Connection::Disconnected(_) => ("DISCONNECTED", Role::Bad),
-            Connection::Stopped => ("stopped", Role::Dim),
+            Connection::Starting => (tr!("connection-starting"), Role::Dim),
+            Connection::WaitingForPort(_) => (tr!("connection-waiting"), Role::Warn),
+            Connection::PortOpen(_) => (tr!("connection-port-open"), Role::Warn),
+            Connection::Connected => (tr!("connection-connected"), Role::Ok),
+            Connection::Mismatch(_) => (tr!("connection-mismatch"), Role::Bad),
+            Connection::Disconnected(_) => (tr!("connection-disconnected"), Role::Bad),
+            Connection::Stopped => (tr!("connection-stopped"), Role::Dim),
         }
     }
 }
@@ -157,9 +156,9 @@ enum Action {
 fn bindings() -> Vec<Binding<Action>> {
     vec![Binding::new(
         &[code(KeyCode::Esc), ch('b'), ch('d')],
-        "Esc",
-        "back",
-        "back to the screen before (also b or d)",
+        msg!("key-esc"),
+        msg!("device-back"),
+        msg!("device-back-help"),
         Action::Back,
     )]
 }
@@ -186,24 +185,24 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let d = &app.device;
     let (word, role) = d.word();
     let mut lines = vec![
-        kv(m, "port", d.port.clone()),
+        kv(m, &tr!("device-port"), d.port.clone()),
         Line::from(vec![
-            Span::styled(format!("{:<16}", "state"), st(m, Role::Dim)),
+            Span::styled(format!("{:<16}", tr!("device-state")), st(m, Role::Dim)),
             Span::styled(word, st(m, role)),
         ]),
     ];
     match &d.connection {
         Connection::WaitingForPort(e) | Connection::Disconnected(e) | Connection::Mismatch(e) => {
-            lines.push(kv(m, "why", e.clone()))
+            lines.push(kv(m, &tr!("device-why"), e.clone()))
         }
         _ => {}
     }
     if let Some(h) = &d.hello {
-        lines.push(kv(m, "device id", format!("{:016x}", h.device_id)));
-        lines.push(kv(m, "boot", h.boot_id.to_string()));
+        lines.push(kv(m, &tr!("device-id"), format!("{:016x}", h.device_id)));
+        lines.push(kv(m, &tr!("device-boot"), h.boot_id.to_string()));
         lines.push(kv(
             m,
-            "firmware",
+            &tr!("device-firmware"),
             format!(
                 "{}.{}.{}",
                 h.firmware.major, h.firmware.minor, h.firmware.patch
@@ -211,40 +210,55 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         ));
         lines.push(kv(
             m,
-            "protocol",
+            &tr!("device-protocol"),
             format!("{}.{}", h.protocol.major, h.protocol.minor),
         ));
     } else {
-        lines.push(kv(m, "device", "no hello yet".into()));
+        lines.push(kv(m, &tr!("device-device"), tr!("device-no-hello")));
     }
     lines.push(kv(
         m,
-        "host",
-        format!(
-            "tapeshape {} protocol {}.{}",
-            env!("CARGO_PKG_VERSION"),
-            tapeshape_protocol::PROTOCOL_VERSION.major,
-            tapeshape_protocol::PROTOCOL_VERSION.minor
+        &tr!("device-host"),
+        tr!(
+            "device-host-value",
+            version = env!("CARGO_PKG_VERSION"),
+            protocol = format!(
+                "{}.{}",
+                tapeshape_protocol::PROTOCOL_VERSION.major,
+                tapeshape_protocol::PROTOCOL_VERSION.minor
+            )
         ),
     ));
     if let Some((n, cap)) = d.queue {
-        lines.push(kv(m, "tape queue", format!("{n} of {cap} unacknowledged")));
+        lines.push(kv(
+            m,
+            &tr!("device-queue"),
+            tr!("device-queue-value", n = n, capacity = cap),
+        ));
     }
     lines.push(kv(
         m,
-        "link",
-        format!(
-            "{} bad frames, {} connections lost",
-            d.bad_frames, d.disconnects
+        &tr!("device-link"),
+        tr!(
+            "device-link-value",
+            bad = d.bad_frames,
+            lost = d.disconnects
         ),
     ));
     if let Some(l) = d.live {
-        lines.push(kv(m, "live", app.unit.format(l.value_tenth_mm)));
+        lines.push(kv(
+            m,
+            &tr!("device-live"),
+            app.unit.format(l.value_tenth_mm),
+        ));
     }
     lines.push(Line::raw(""));
-    lines.push(Line::styled("Recent faults", st(m, Role::Title)));
+    lines.push(Line::styled(tr!("device-faults"), st(m, Role::Title)));
     if d.faults.is_empty() {
-        lines.push(Line::styled("  none", st(m, Role::Dim)));
+        lines.push(Line::styled(
+            format!("  {}", tr!("device-no-faults")),
+            st(m, Role::Dim),
+        ));
     }
     for f in &d.faults {
         lines.push(Line::styled(format!("  {f}"), st(m, Role::Warn)));
@@ -252,7 +266,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     frame.render_widget(
         Paragraph::new(lines)
             .wrap(Wrap { trim: false })
-            .block(Block::bordered().title(" Tape ")),
+            .block(Block::bordered().title(format!(" {} ", tr!("device-title")))),
         area,
     );
 }

@@ -7,7 +7,8 @@ use ratatui::text::Line;
 use ratatui::widgets::{Block, Gauge, Paragraph, Wrap};
 use ratatui::Frame;
 
-use crate::services::{stage_label, EstimateEvent, Stage, STAGES};
+use crate::i18n::{msg, tr};
+use crate::services::{EstimateEvent, Stage, STAGES};
 use crate::tui::app::{action, AfterOpen, App, Effect, Global, Level, Screen};
 use crate::tui::keys::{code, hints as hints_of, Binding, Hint};
 use crate::tui::theme::{st, Role};
@@ -38,17 +39,17 @@ fn bindings(app: &App) -> Vec<Binding<Action>> {
     if app.estimate.running {
         vec![Binding::new(
             &[code(KeyCode::Esc)],
-            "Esc",
-            "cancel",
-            "cancel the estimate (the readings stay as they are)",
+            msg!("key-esc"),
+            msg!("estimating-cancel"),
+            msg!("estimating-cancel-help"),
             Action::Cancel,
         )]
     } else {
         vec![Binding::new(
             &[code(KeyCode::Esc)],
-            "Esc",
-            "back to measuring",
-            "back to measuring",
+            msg!("key-esc"),
+            msg!("estimating-back"),
+            msg!("estimating-back-help"),
             Action::Back,
         )]
     }
@@ -112,11 +113,20 @@ pub fn on_estimate(app: &mut App, ev: EstimateEvent, fx: &mut Vec<Effect>) {
             app.estimate = EstimateState::default();
             app.after_open = None;
             app.screen = Screen::Measuring;
-            app.note(
-                Level::Info,
-                "Estimate cancelled; the readings are unchanged",
-            );
+            app.note(Level::Info, tr!("estimating-cancelled"));
         }
+    }
+}
+
+/// A stage of the estimate in the chosen language (the services' own label,
+/// `stage_label`, is English, for logs).
+fn stage_text(stage: Stage) -> String {
+    match stage {
+        Stage::Check => tr!("stage-check"),
+        Stage::Start => tr!("stage-start"),
+        Stage::Step1 => tr!("stage-step1"),
+        Stage::Step2 => tr!("stage-step2"),
+        Stage::Done => tr!("stage-done"),
     }
 }
 
@@ -143,11 +153,12 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             } else {
                 ("✓ ", Role::Ok)
             };
-            Line::styled(format!(" {mark}{}", stage_label(*s)), st(m, role))
+            Line::styled(format!(" {mark}{}", stage_text(*s)), st(m, role))
         })
         .collect();
     frame.render_widget(
-        Paragraph::new(lines).block(Block::bordered().title(" Estimating the body ")),
+        Paragraph::new(lines)
+            .block(Block::bordered().title(format!(" {} ", tr!("estimating-title")))),
         stages,
     );
     frame.render_widget(
@@ -159,20 +170,20 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     );
     let text = if let Some(err) = &e.error {
         vec![
-            Line::styled("The estimate was refused:", st(m, Role::Bad)),
+            Line::styled(tr!("estimating-refused"), st(m, Role::Bad)),
             Line::raw(err.clone()),
             Line::raw(""),
-            Line::styled(
-                "Esc goes back to measuring: retake the readings named above.",
-                st(m, Role::Dim),
-            ),
+            Line::styled(tr!("estimating-refused-back"), st(m, Role::Dim)),
         ]
     } else if e.cancelling {
-        vec![Line::styled("Cancelling...", st(m, Role::Warn))]
+        vec![Line::styled(
+            tr!("estimating-cancelling"),
+            st(m, Role::Warn),
+        )]
     } else {
         let n = app.session.as_ref().map_or(0, |s| s.accepted().len());
         vec![Line::styled(
-            format!("Fitting the body to {n} readings; Esc cancels."),
+            tr!("estimating-fitting", n = n),
             st(m, Role::Dim),
         )]
     };

@@ -8,7 +8,8 @@ use ratatui::text::Line;
 use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table};
 use ratatui::Frame;
 
-use crate::store::{SessionId, SessionSummary};
+use crate::i18n::{msg, tr};
+use crate::store::{SessionId, SessionStatus, SessionSummary};
 use crate::tui::app::{action, AfterOpen, App, Effect, Global, Level, Screen};
 use crate::tui::keys::{ch, code, hints as hints_of, Binding, Hint, Key};
 use crate::tui::theme::{centered, hint, hint_line, st, Role};
@@ -51,28 +52,36 @@ fn bindings(app: &App) -> Vec<Binding<Action>> {
     let h = &app.history;
     if h.confirm_delete.is_some() {
         return vec![
+            // `y` in every language: deleting for good asks for a key that
+            // is pressed for nothing else here (German's `j` is `down`).
             Binding::new(
                 &[ch('y')],
                 "y",
-                "delete",
-                "delete it for good",
+                msg!("history-confirm-delete"),
+                msg!("history-confirm-delete-help"),
                 Action::ConfirmDelete,
             ),
-            Binding::new(&[Key::Any], "any key", "keep", "keep it", Action::KeepIt),
+            Binding::new(
+                &[Key::Any],
+                msg!("key-any"),
+                msg!("history-keep"),
+                msg!("history-keep-help"),
+                Action::KeepIt,
+            ),
         ];
     }
     let mut b = vec![
         Binding::help_only(
             &[code(KeyCode::Up), ch('k'), code(KeyCode::Down), ch('j')],
-            "up/down",
-            "choose a session in the list (also k / j)",
+            msg!("key-up-down"),
+            msg!("history-move-help"),
             Action::Move,
         ),
         Binding::new(
             &[code(KeyCode::Enter), ch('o')],
-            "Enter",
-            "reopen",
-            "reopen the session to measure (also o)",
+            msg!("key-enter"),
+            msg!("history-reopen"),
+            msg!("history-reopen-help"),
             Action::Reopen,
         ),
     ];
@@ -82,8 +91,8 @@ fn bindings(app: &App) -> Vec<Binding<Action>> {
         b.push(Binding::new(
             &[ch('v')],
             "v",
-            "result",
-            "show its stored estimate (nothing is estimated again)",
+            msg!("history-result"),
+            msg!("history-result-help"),
             Action::ShowResult,
         ));
     }
@@ -91,32 +100,32 @@ fn bindings(app: &App) -> Vec<Binding<Action>> {
         Binding::new(
             &[ch('e')],
             "e",
-            "estimate",
-            "estimate the session again",
+            msg!("history-estimate"),
+            msg!("history-estimate-help"),
             Action::Estimate,
         ),
         Binding::new(
             &[ch('x')],
             "x",
-            "export",
-            "export it (its stored estimate if that is of its readings)",
+            msg!("history-export"),
+            msg!("history-export-help"),
             Action::Export,
         ),
         Binding::new(
             &[code(KeyCode::Delete), ch('D')],
-            "Del",
-            "delete",
-            "delete the session (asks first; also D)",
+            msg!("key-del"),
+            msg!("history-delete"),
+            msg!("history-delete-help"),
             Action::Delete,
         ),
         Binding::new(
             &[code(KeyCode::Esc), ch('b')],
-            "Esc",
-            "back",
-            "back to the screen before (also b)",
+            msg!("key-esc"),
+            msg!("history-back"),
+            msg!("history-back-help"),
             Action::Back,
         ),
-        Binding::help_only(&[ch('r')], "r", "load the list again", Action::Reload),
+        Binding::help_only(&[ch('r')], "r", msg!("history-reload-help"), Action::Reload),
     ]);
     b
 }
@@ -164,11 +173,11 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                 app.result.summary = None;
                 app.back_to = Screen::NewCustomer;
             }
-            app.note(Level::Info, format!("Session {id} deleted"));
+            app.note(Level::Info, tr!("history-deleted", id = id.to_string()));
         }
         Action::KeepIt => {
             h.confirm_delete = None;
-            app.note(Level::Info, "Kept the session");
+            app.note(Level::Info, tr!("history-kept"));
         }
         Action::Move if crate::tui::screens::measuring::up(&key) => {
             h.selected = h.selected.saturating_sub(1)
@@ -199,6 +208,16 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
     }
 }
 
+/// A session's status in the chosen language (the store's word,
+/// `SessionStatus::as_str`, is the one the commands print and parse).
+fn status_text(status: SessionStatus) -> String {
+    match status {
+        SessionStatus::Open => tr!("status-open"),
+        SessionStatus::Done => tr!("status-done"),
+        SessionStatus::Abandoned => tr!("status-abandoned"),
+    }
+}
+
 /// Draws the history screen into `area`.
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let m = app.mono;
@@ -220,16 +239,16 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                         .take(8)
                         .collect::<String>(),
                 ),
-                Cell::from(s.session.status.to_string()),
+                Cell::from(status_text(s.session.status)),
                 Cell::from(format!("{:>3}", s.current_readings)),
                 Cell::from(t.get(..16).unwrap_or(&t).replace('T', " ")),
             ])
         })
         .collect();
     let title = if h.loading {
-        " Sessions (loading...) ".to_string()
+        format!(" {} ", tr!("history-title-loading"))
     } else {
-        format!(" Sessions ({}) ", h.sessions.len())
+        format!(" {} ", tr!("history-title", n = h.sessions.len()))
     };
     let mut state = ratatui::widgets::TableState::default().with_selected(Some(h.selected));
     frame.render_stateful_widget(
@@ -246,12 +265,12 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         )
         .header(
             Row::new(vec![
-                "id",
-                "customer",
-                "set",
-                "status",
-                "rd",
-                "updated (UTC)",
+                tr!("history-col-id"),
+                tr!("history-col-customer"),
+                tr!("history-col-set"),
+                tr!("history-col-status"),
+                tr!("history-col-readings"),
+                tr!("history-col-updated"),
             ])
             .style(st(m, Role::Dim)),
         )
@@ -263,7 +282,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     if h.sessions.is_empty() && !h.loading {
         let inner = centered(area, 40, 3);
         frame.render_widget(
-            Paragraph::new("No sessions stored yet").alignment(Alignment::Center),
+            Paragraph::new(tr!("history-empty")).alignment(Alignment::Center),
             inner,
         );
     }
@@ -276,19 +295,29 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 Line::raw(""),
                 Line::styled(
                     format!(
-                        " Delete session {id} ({}, {} readings, {} retaken) for good?",
-                        s.map_or("?", |s| s.session.customer_id.as_str()),
-                        s.map_or(0, |s| s.current_readings),
-                        s.map_or(0, |s| s.total_readings - s.current_readings)
+                        " {}",
+                        tr!(
+                            "history-delete-question",
+                            id = id.to_string(),
+                            customer = s.map_or("?", |s| s.session.customer_id.as_str()),
+                            readings = s.map_or(0, |s| s.current_readings),
+                            retaken = s.map_or(0, |s| s.total_readings - s.current_readings)
+                        )
                     ),
                     st(m, Role::Big),
                 ),
                 Line::raw(""),
-                hint_line(m, &[hint("y", "delete"), hint("any other key", "keep it")]),
+                hint_line(
+                    m,
+                    &[
+                        hint("y", msg!("history-confirm-delete")),
+                        hint(msg!("key-any-other"), msg!("history-keep-it")),
+                    ],
+                ),
             ])
             .block(
                 Block::bordered()
-                    .title(" Delete? ")
+                    .title(format!(" {} ", tr!("history-delete-title")))
                     .border_style(st(m, Role::Bad)),
             ),
             popup,

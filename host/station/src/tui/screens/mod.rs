@@ -9,6 +9,7 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Clear, Paragraph};
 use ratatui::Frame;
 
+use crate::i18n::tr;
 use crate::tui::app::{App, Connection, Level, Pilot, Screen};
 use crate::tui::keys::Hint;
 use crate::tui::theme::{centered, hint_line, st, Role};
@@ -56,16 +57,28 @@ fn draw_top(app: &App, frame: &mut Frame, area: Rect) {
         Span::styled(app.screen.title(), st(m, Role::Big)),
     ];
     if let Some(s) = &app.session {
-        left.push(Span::styled(
-            format!(" | session {} {} {}", s.id, s.customer, s.set),
-            st(m, Role::Dim),
-        ));
+        let session = tr!(
+            "top-session",
+            id = s.id.to_string(),
+            customer = s.customer.as_str(),
+            set = s.set.as_str()
+        );
+        left.push(Span::styled(format!(" | {session}"), st(m, Role::Dim)));
     }
     let (word, role) = app.device.word();
-    let mut right = vec![Span::raw("tape: "), Span::styled(word, st(m, role))];
+    let mut right = vec![
+        Span::raw(format!("{} ", tr!("top-tape"))),
+        Span::styled(word, st(m, role)),
+    ];
     match app.demo {
-        Some(Pilot::Simulated) => right.push(Span::styled(" DEMO autopilot", st(m, Role::Warn))),
-        Some(Pilot::Person) => right.push(Span::styled(" DEMO manual", st(m, Role::Dim))),
+        Some(Pilot::Simulated) => right.push(Span::styled(
+            format!(" {}", tr!("top-demo-autopilot")),
+            st(m, Role::Warn),
+        )),
+        Some(Pilot::Person) => right.push(Span::styled(
+            format!(" {}", tr!("top-demo-manual")),
+            st(m, Role::Dim),
+        )),
         None => {}
     }
     right.insert(0, Span::raw("  "));
@@ -86,19 +99,18 @@ fn draw_banner(app: &App, frame: &mut Frame, area: Rect) {
         Connection::Disconnected(_) => Some((
             Role::Bad,
             format!(
-                " TAPE DISCONNECTED: reconnecting...{} (d: details) ",
+                " {} ",
                 if session_kept {
-                    " session kept, no reading lost"
+                    tr!("banner-disconnected-kept")
                 } else {
-                    ""
+                    tr!("banner-disconnected")
                 }
             ),
         )),
         Connection::Mismatch(msg) => Some((Role::Bad, format!(" {msg} "))),
-        Connection::WaitingForPort(_) if session_kept => Some((
-            Role::Bad,
-            " NO TAPE: plug it in; the session is kept (d: details) ".to_string(),
-        )),
+        Connection::WaitingForPort(_) if session_kept => {
+            Some((Role::Bad, format!(" {} ", tr!("banner-no-tape-kept"))))
+        }
         _ => None,
     };
     let line = match (banner, &app.notice) {
@@ -124,8 +136,8 @@ fn draw_help(app: &App, frame: &mut Frame, area: Rect) {
     frame.render_widget(Clear, popup);
     let line = |h: &Hint| {
         Line::from(vec![
-            Span::styled(format!(" {:<10}", h.shown), st(m, Role::Key)),
-            Span::raw(h.help),
+            Span::styled(format!(" {:<10}", h.shown_text()), st(m, Role::Key)),
+            Span::raw(h.help_text()),
         ])
     };
     let mut lines = vec![Line::styled(
@@ -133,13 +145,19 @@ fn draw_help(app: &App, frame: &mut Frame, area: Rect) {
         st(m, Role::Title),
     )];
     lines.extend(app.screen_hints().iter().map(line));
-    lines.push(Line::styled(" Anywhere", st(m, Role::Title)));
+    lines.push(Line::styled(
+        format!(" {}", tr!("help-anywhere")),
+        st(m, Role::Title),
+    ));
     lines.extend(app.global_hints().iter().map(line));
     // (No word on the demo's takeover: a person's first key has taken over
     // before they could open this.)
-    lines.push(Line::styled(" any key closes this help", st(m, Role::Dim)));
+    lines.push(Line::styled(
+        format!(" {}", tr!("help-close")),
+        st(m, Role::Dim),
+    ));
     frame.render_widget(
-        Paragraph::new(lines).block(Block::bordered().title(" Keys ")),
+        Paragraph::new(lines).block(Block::bordered().title(format!(" {} ", tr!("help-title")))),
         popup,
     );
 }

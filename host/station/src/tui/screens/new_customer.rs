@@ -15,6 +15,7 @@ use ratatui::widgets::{Block, Clear, Paragraph, Wrap};
 use ratatui::Frame;
 use tapeshape_population::ansur::Sex;
 
+use crate::i18n::{self, msg, tr};
 use crate::session::ResumeOffer;
 use crate::store::Consent;
 use crate::tui::app::{action, AfterOpen, App, Effect, Global, Level};
@@ -32,12 +33,32 @@ const SEXES: [Option<Sex>; 3] = [None, Some(Sex::Female), Some(Sex::Male)];
 /// them (the first is the default).
 const CONSENTS: [Consent; 2] = [Consent::Visit, Consent::Keep];
 
-/// The form's word for a sex (shown, and stored in the session notes).
+/// The word for a sex stored in the session notes (`sex: female`; English
+/// in every language, [`sex_of_notes`] reads it back). The form shows
+/// [`sex_text`].
 pub fn sex_word(sex: Option<Sex>) -> &'static str {
     match sex {
         None => "not given",
         Some(Sex::Female) => "female",
         Some(Sex::Male) => "male",
+    }
+}
+
+/// The form's word for a sex, in the chosen language.
+pub fn sex_text(sex: Option<Sex>) -> String {
+    match sex {
+        None => tr!("sex-none"),
+        Some(Sex::Female) => tr!("sex-female"),
+        Some(Sex::Male) => tr!("sex-male"),
+    }
+}
+
+/// The form's words for the customer's data choice, in the chosen language
+/// (the store's `Consent::label` is English, for the commands).
+pub fn consent_text(consent: Consent) -> String {
+    match consent {
+        Consent::Keep => tr!("consent-keep"),
+        Consent::Visit => tr!("consent-visit"),
     }
 }
 
@@ -206,24 +227,26 @@ enum Action {
 fn bindings(app: &App) -> Vec<Binding<Action>> {
     if app.form.resume.is_some() {
         return vec![
+            // `j` (German "ja") resumes too: harmless, and what a German
+            // operator presses.
             Binding::new(
-                &[ch('y'), ch('r'), code(KeyCode::Enter)],
-                "y",
-                "resume",
-                "resume",
+                &[ch('y'), ch('j'), ch('r'), code(KeyCode::Enter)],
+                msg!("resume-key"),
+                msg!("resume-resume"),
+                msg!("resume-resume-help"),
                 Action::Resume,
             ),
             Binding::new(
                 &[ch('n')],
                 "n",
-                "new customer",
-                "start a new customer",
+                msg!("resume-new"),
+                msg!("resume-new-help"),
                 Action::Decline,
             ),
             Binding::help_only(
                 &[code(KeyCode::Esc)],
-                "Esc",
-                "close the offer (the session stays open; find it under h)",
+                msg!("key-esc"),
+                msg!("resume-close-help"),
                 Action::CloseOffer,
             ),
         ];
@@ -231,64 +254,65 @@ fn bindings(app: &App) -> Vec<Binding<Action>> {
     let mut b = vec![
         Binding::new(
             &[code(KeyCode::Tab), code(KeyCode::Down)],
-            "Tab",
-            "field",
-            "next field (also down)",
+            msg!("key-tab"),
+            msg!("form-next-field"),
+            msg!("form-next-field-help"),
             Action::NextField,
         ),
         Binding::help_only(
             &[code(KeyCode::BackTab), code(KeyCode::Up)],
-            "S-Tab",
-            "previous field (also up)",
+            msg!("key-shift-tab"),
+            msg!("form-previous-field-help"),
             Action::PreviousField,
         ),
         Binding::new(
             &[code(KeyCode::Left), code(KeyCode::Right)],
-            "<-/->",
-            "choose",
-            "choose the sex, the measurement set or the data choice",
+            msg!("key-left-right"),
+            msg!("form-choose"),
+            msg!("form-choose-help"),
             Action::Choose,
         ),
         Binding::new(
             &[code(KeyCode::Enter)],
-            "Enter",
-            "start",
-            "start the session; readings are stored as they are taken",
+            msg!("key-enter"),
+            msg!("form-start"),
+            msg!("form-start-help"),
             Action::Start,
         ),
     ];
     match app.form.field {
         FormField::Sex => {
+            // `w` (German "weiblich") is female too.
             b.push(Binding::help_only(
-                &[ch('f'), ch('F')],
-                "f",
-                "female",
+                &[ch('f'), ch('F'), ch('w'), ch('W')],
+                msg!("form-female-key"),
+                msg!("form-female-help"),
                 Action::Female,
             ));
             b.push(Binding::help_only(
                 &[ch('m'), ch('M')],
                 "m",
-                "male",
+                msg!("form-male-help"),
                 Action::Male,
             ));
         }
         FormField::Customer | FormField::Age | FormField::File => b.push(Binding::help_only(
             &[code(KeyCode::Backspace)],
-            "Backspace",
-            "delete the last character typed",
+            msg!("key-backspace"),
+            msg!("form-delete-char-help"),
             Action::DeleteChar,
         )),
         FormField::Consent => {
             b.push(Binding::help_only(
                 &[ch('k'), ch('K')],
                 "k",
-                "keep my data (the chain keeps the sessions until the customer asks to erase them)",
+                msg!("form-keep-help"),
                 Action::Keep,
             ));
             b.push(Binding::help_only(
                 &[ch('v'), ch('V')],
                 "v",
-                "this visit only (purged after the hub's retention period)",
+                msg!("form-visit-help"),
                 Action::Visit,
             ));
         }
@@ -333,10 +357,7 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
             if let Some(offer) = form.resume.take() {
                 app.note(
                     Level::Info,
-                    format!(
-                        "Session {} stays open; find it under h (history)",
-                        offer.session
-                    ),
+                    tr!("resume-declined", session = offer.session.to_string()),
                 );
             }
         }
@@ -404,7 +425,7 @@ fn submit(app: &mut App, fx: &mut Vec<Effect>) {
     let form = &mut app.form;
     let customer = form.customer.trim().to_string();
     if customer.is_empty() {
-        form.error = Some("Give a customer id (any text; a new one is suggested)".into());
+        form.error = Some(tr!("form-error-customer"));
         form.field = FormField::Customer;
         return;
     }
@@ -414,10 +435,7 @@ fn submit(app: &mut App, fx: &mut Vec<Effect>) {
         match form.age.parse::<u32>() {
             Ok(a) if (16..=110).contains(&a) => Some(a),
             _ => {
-                form.error = Some(format!(
-                    "Age {} is not between 16 and 110: correct it or leave it empty",
-                    form.age
-                ));
+                form.error = Some(tr!("form-error-age", age = form.age.as_str()));
                 form.field = FormField::Age;
                 return;
             }
@@ -425,7 +443,7 @@ fn submit(app: &mut App, fx: &mut Vec<Effect>) {
     };
     let set = form.set();
     if set.is_empty() {
-        form.error = Some("Give the path of the measurement set file (TOML)".into());
+        form.error = Some(tr!("form-error-file"));
         form.field = FormField::File;
         return;
     }
@@ -448,7 +466,7 @@ fn submit(app: &mut App, fx: &mut Vec<Effect>) {
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let m = app.mono;
     let f = &app.form;
-    let field = |name: FormField, label: &str, value: String, help: &str| -> Line<'static> {
+    let field = |name: FormField, label: String, value: String, help: String| -> Line<'static> {
         let focus = f.field == name && f.resume.is_none();
         let marker = if focus { "> " } else { "  " };
         Line::from(vec![
@@ -467,48 +485,53 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     };
     let set_value = match BUILTIN_SET_CHOICES.get(f.set_choice) {
         Some(s) => format!("< {s} >"),
-        None => "< custom file >".to_string(),
+        None => format!("< {} >", tr!("form-custom-file")),
     };
     let mut lines = vec![
         Line::raw(""),
         field(
             FormField::Customer,
-            "customer id",
+            tr!("form-customer"),
             format!("{} ", f.customer),
-            "opaque; no name needed",
+            tr!("form-customer-help"),
         ),
         field(
             FormField::Sex,
-            "sex",
-            format!("< {} >", sex_word(f.sex)),
-            "f / m",
+            tr!("form-sex"),
+            format!("< {} >", sex_text(f.sex)),
+            tr!("form-sex-help"),
         ),
         field(
             FormField::Age,
-            "age (optional)",
+            tr!("form-age"),
             format!("{:<3}", f.age),
-            "years",
+            tr!("form-age-help"),
         ),
-        field(FormField::Set, "measurements", set_value, "<- -> to choose"),
+        field(
+            FormField::Set,
+            tr!("form-set"),
+            set_value,
+            tr!("form-set-help"),
+        ),
     ];
     if f.set_choice == BUILTIN_SET_CHOICES.len() {
         lines.push(field(
             FormField::File,
-            "set file",
+            tr!("form-file"),
             format!("{} ", f.file),
-            "TOML file",
+            tr!("form-file-help"),
         ));
     }
     lines.push(field(
         FormField::Consent,
-        "their data",
-        format!("< {} >", f.consent.label()),
-        "ask them: k keep / v visit",
+        tr!("form-consent"),
+        format!("< {} >", consent_text(f.consent)),
+        tr!("form-consent-help"),
     ));
     lines.push(Line::raw(""));
     let blurb = match BUILTIN_SET_CHOICES.get(f.set_choice) {
         Some(name) => set_blurb(name),
-        None => "a measurement set file (TOML, as host/measure/sets/*.toml)".to_string(),
+        None => tr!("form-file-blurb"),
     };
     lines.push(Line::styled(format!("  {blurb}"), st(m, Role::Dim)));
     if let Some(e) = &f.error {
@@ -517,13 +540,13 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     }
     lines.push(Line::raw(""));
     lines.push(Line::styled(
-        "  Enter starts the session; readings are stored as they are taken.",
+        format!("  {}", tr!("form-enter-starts")),
         st(m, Role::Dim),
     ));
     frame.render_widget(
         Paragraph::new(lines)
             .wrap(Wrap { trim: false })
-            .block(Block::bordered().title(" New customer ")),
+            .block(Block::bordered().title(format!(" {} ", tr!("new-customer-title")))),
         area,
     );
     if let Some(r) = &f.resume {
@@ -539,24 +562,24 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             Line::raw(""),
             Line::from(vec![Span::styled(
                 format!(
-                    " Session {} (customer {}, {}) is not finished:",
-                    r.session,
-                    r.customer,
-                    r.set.as_deref().unwrap_or("no set")
+                    " {}",
+                    tr!(
+                        "resume-not-finished",
+                        session = r.session.to_string(),
+                        customer = r.customer.as_str(),
+                        set = r.set.clone().unwrap_or_else(|| tr!("resume-no-set"))
+                    )
                 ),
                 st(m, Role::Big),
             )]),
-            Line::raw(format!(
-                " {} readings are stored. Resume it with them?",
-                r.readings
-            )),
+            Line::raw(format!(" {}", tr!("resume-readings", n = r.readings))),
             Line::raw(""),
             hint_line(m, &keys),
         ];
         frame.render_widget(
             Paragraph::new(text).block(
                 Block::bordered()
-                    .title(" Resume? ")
+                    .title(format!(" {} ", tr!("resume-title")))
                     .border_style(st(m, Role::Warn)),
             ),
             popup,
@@ -564,9 +587,13 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     }
 }
 
-/// "name: N measurements; description" of a built-in set, parsed once.
+/// "name: N measurements. description" of a built-in set in the chosen
+/// language: the catalogue's `set-description-<name>`, else the first
+/// sentence of the set's own description (sets parsed once).
 fn set_blurb(name: &str) -> String {
-    static BLURBS: std::sync::OnceLock<Vec<(String, String)>> = std::sync::OnceLock::new();
+    /// Per built-in set: name, number of measurements, first sentence.
+    type Blurb = (String, usize, String);
+    static BLURBS: std::sync::OnceLock<Vec<Blurb>> = std::sync::OnceLock::new();
     let all = BLURBS.get_or_init(|| {
         BUILTIN_SET_CHOICES
             .iter()
@@ -579,15 +606,19 @@ fn set_blurb(name: &str) -> String {
                     .unwrap_or("")
                     .trim()
                     .to_string();
-                (
-                    s.name.clone(),
-                    format!("{}: {} measurements. {first}", s.name, s.definitions.len()),
-                )
+                (s.name.clone(), s.definitions.len(), first)
             })
             .collect()
     });
     all.iter()
-        .find(|(n, _)| n == name)
-        .map(|(_, b)| b.clone())
+        .find(|(n, _, _)| n == name)
+        .map(|(n, count, first)| {
+            tr!(
+                "set-blurb",
+                name = n.as_str(),
+                count = *count,
+                description = i18n::text_or(&format!("set-description-{n}"), first)
+            )
+        })
         .unwrap_or_else(|| name.to_string())
 }

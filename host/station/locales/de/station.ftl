@@ -1,0 +1,268 @@
+# tapeshape station: Bedientexte, Deutsch. Fluent syntax:
+# https://projectfluent.org/
+#
+# The keys are those of locales/en/station.ftl, every one of them
+# (tests/i18n_catalogue.rs checks it); a key missing here would show the
+# English text. Fixed machine-readable words (line mode's `session`,
+# `port`, `fault queue-full`, ...) stay English and are not here.
+
+## Screens (top bar and titles)
+
+screen-device = Gerät
+screen-new-customer = Neuer Kunde
+screen-measuring = Messung
+screen-estimating = Berechnung
+screen-result = Ergebnis
+screen-history = Verlauf
+
+## Top bar, banner, help
+
+top-session = Sitzung { $id } { $customer } { $set }
+top-tape = Maßband:
+top-demo-autopilot = DEMO Autopilot
+top-demo-manual = DEMO manuell
+banner-disconnected = MASSBAND GETRENNT: verbinde neu... (d: Details)
+banner-disconnected-kept = MASSBAND GETRENNT: verbinde neu... Sitzung bleibt, kein Messwert verloren (d: Details)
+banner-no-tape-kept = KEIN MASSBAND: bitte anschließen; die Sitzung bleibt (d: Details)
+help-title = Tasten
+help-anywhere = Überall
+help-close = jede Taste schließt diese Hilfe
+
+## Keys as written in the footer and the help
+
+key-ctrl-c = Strg-C
+key-enter = Enter
+key-esc = Esc
+key-tab = Tab
+key-shift-tab = Umsch-Tab
+key-left-right = <-/->
+key-up-down = hoch/runter
+key-backspace = Rücktaste
+key-del = Entf
+key-any = jede Taste
+key-any-other = jede andere Taste
+
+## Keys that work anywhere
+
+global-quit-now-help = sofort beenden
+global-help = Hilfe
+global-help-help = diese Hilfe (jede Taste schließt sie)
+global-device = Gerät
+global-device-help = der Gerätebildschirm: Verbindung, Versionen, Fehler des Maßbands
+global-history = Verlauf
+global-history-help = der Verlauf der Sitzungen
+global-quit = Ende
+global-quit-help = beenden, zweimal drücken (jeder Messwert ist schon gespeichert)
+
+## Notices
+
+notice-taken-over = Sie haben die Tastatur: der simulierte Bediener hat aufgehört (? für Tasten)
+notice-quit-again = Nochmals q zum Beenden (jeder Messwert ist schon gespeichert)
+notice-gap = Das Maßband schickte Messwert { $got } vor { $expected }: warte, bis es ihn neu sendet
+notice-unassigned = Das Maßband hält einen Messwert ({ $value }): er bleibt dort, bis eine Messung gewählt ist
+notice-commit-failed = { $value } konnte nicht gespeichert werden ({ $error }); das Maßband behält ihn
+
+## Device screen
+
+device-title = Maßband
+device-port = Anschluss
+device-state = Zustand
+device-why = Grund
+device-id = Geräte-ID
+device-boot = Start
+device-firmware = Firmware
+device-protocol = Protokoll
+device-device = Gerät
+device-no-hello = noch keine Begrüßung
+device-host = Rechner
+device-host-value = tapeshape { $version } Protokoll { $protocol }
+device-queue = Warteschlange
+device-queue-value = { $n } von { $capacity } unbestätigt
+device-link = Verbindung
+device-link-value = { $bad } fehlerhafte Rahmen, { $lost ->
+    [one] 1 Verbindung verloren
+   *[other] { $lost } Verbindungen verloren
+  }
+device-live = aktuell
+device-faults = Letzte Fehler
+device-no-faults = keine
+device-back = zurück
+device-back-help = zurück zum vorigen Bildschirm (auch b oder d)
+device-reconnected = Maßband wieder verbunden: weitermachen (gehaltene Messwerte werden gespeichert)
+connection-starting = startet
+connection-waiting = kein Maßband (warte)
+connection-port-open = Anschluss offen, Begrüßung
+connection-connected = verbunden
+connection-mismatch = FALSCHE VERSION
+connection-disconnected = GETRENNT
+connection-stopped = gestoppt
+
+## Device faults (after the fault's fixed word, e.g. `queue-full:`)
+
+fault-queue-full = die Warteschlange des Maßbands ({ $capacity }) ist voll; { $value } wurde NICHT gespeichert, bitte neu messen
+fault-queue-recovered = { $held } gehalten
+fault-tape-silent = seit { $seconds } s keine Zeile vom Maßband; Kabel prüfen
+fault-line-rejected = das Maßband schickte { $what } ({ $total } seit dem Start); wenn das wieder vorkommt, Kabel prüfen
+fault-version-mismatch = das Maßband spricht Protokoll { $device }, begrüßt wurde es mit { $host }
+fault-host-frame-bad = das Maßband verwarf einen Rahmen von uns ({ $total } seit dem Start)
+reject-garbage = etwas, das keine Maßbandzeile ist
+reject-partial = eine abgeschnittene Zeile ({ $len } von 19 Zeichen)
+reject-overlong = eine Zeile mit mehr als 19 Zeichen
+reject-bad-field = eine Zeile, deren Feld { $field } nicht ist, was ein Maßband sendet
+reject-negative = eine negative Länge
+reject-out-of-range = eine Länge, die es nicht messen kann ({ $value })
+
+## New customer screen
+
+new-customer-title = Neuer Kunde
+form-customer = Kunden-ID
+form-customer-help = anonym; kein Name nötig
+form-sex = Geschlecht
+form-sex-help = w / m
+form-age = Alter
+form-age-help = Jahre (freiwillig)
+form-set = Messungen
+form-set-help = <- -> zum Wählen
+form-custom-file = eigene Datei
+form-file = Messdatei
+form-file-help = TOML-Datei
+form-consent = Ihre Daten
+form-consent-help = fragen: k behalten / v nur Besuch
+form-file-blurb = eine Datei mit Messungen (TOML, wie host/measure/sets/*.toml)
+form-enter-starts = Enter startet die Sitzung; Messwerte werden sofort gespeichert.
+sex-none = keine Angabe
+sex-female = weiblich
+sex-male = männlich
+consent-keep = Daten behalten
+consent-visit = nur dieser Besuch
+set-blurb = { $name }: { $count } Messungen. { $description }
+set-description-quick = Der Satz für die Umkleide (etwa zwei Minuten mit einem Maßband): Körperhöhe, Brustumfang, Taillenumfang auf Nabelhöhe, Hüftumfang, Halsumfang, Innenbeinlänge, Armlänge, Oberschenkel- und Oberarmumfang.
+set-description-ansur = ANSUR-II-Maße, die am stehenden Körper genommen werden können (Höhen, Breiten, Tiefen, Umfänge, Segmentlängen, Bögen), je nach ihrer ANSUR-Spalte benannt, um Vorhersagen an echten Menschen zu prüfen.
+set-description-paper34 = Die 34 Körpermaße des Artikels (14 Längen, Hüft-, Taillen-, Brust- und Kopfumfang, Knie- und Armschlingen aus je 4 Geodäten): der Satz, mit dem die Methode veröffentlicht wurde, um ihre Versuche nachzuvollziehen.
+form-error-customer = Bitte eine Kunden-ID angeben (beliebiger Text; eine neue ist vorgeschlagen)
+form-error-age = Alter { $age } liegt nicht zwischen 16 und 110: korrigieren oder leer lassen
+form-error-file = Bitte den Pfad der Messdatei (TOML) angeben
+form-next-field = Feld
+form-next-field-help = nächstes Feld (auch runter)
+form-previous-field-help = voriges Feld (auch hoch)
+form-choose = wählen
+form-choose-help = Geschlecht, Messungen oder Datenwahl wählen
+form-start = Start
+form-start-help = die Sitzung starten; Messwerte werden sofort gespeichert
+form-female-key = w
+form-female-help = weiblich
+form-male-help = männlich
+form-delete-char-help = das zuletzt getippte Zeichen löschen
+form-keep-help = Daten behalten (die Kette behält die Sitzungen, bis der Kunde die Löschung verlangt)
+form-visit-help = nur dieser Besuch (nach der Aufbewahrungsfrist der Zentrale gelöscht)
+resume-key = j
+resume-title = Fortsetzen?
+resume-resume = fortsetzen
+resume-resume-help = fortsetzen
+resume-new = neuer Kunde
+resume-new-help = einen neuen Kunden beginnen
+resume-close-help = das Angebot schließen (die Sitzung bleibt offen; unter h zu finden)
+resume-not-finished = Sitzung { $session } (Kunde { $customer }, { $set }) ist nicht fertig:
+resume-no-set = keine Messungen
+resume-readings = { $n ->
+    [one] 1 Messwert ist gespeichert. Mit ihm fortsetzen?
+   *[other] { $n } Messwerte sind gespeichert. Mit ihnen fortsetzen?
+  }
+resume-declined = Sitzung { $session } bleibt offen; unter h (Verlauf) zu finden
+
+## Measurements of the quick set (the measuring flow): the operator's names
+
+measure-quick-stature = Körperhöhe
+measure-quick-chest = Brustumfang
+measure-quick-waist = Taillenumfang (Nabelhöhe)
+measure-quick-hip = Hüftumfang
+measure-quick-neck = Halsumfang (Halsansatz)
+measure-quick-inside_leg = Innenbeinlänge
+measure-quick-arm_length = Armlänge
+measure-quick-thigh = Oberschenkelumfang
+measure-quick-upper_arm = Oberarmumfang
+
+## Estimating screen
+
+estimating-title = Der Körper wird berechnet
+stage-check = Messwerte prüfen
+stage-start = erste Schätzung (Merkmalsanalyse)
+stage-step1 = Formraum anpassen
+stage-step2 = Oberfläche verfeinern
+stage-done = fertig
+estimating-refused = Die Berechnung wurde abgelehnt:
+estimating-refused-back = Esc führt zurück zur Messung: die oben genannten Messwerte neu nehmen.
+estimating-cancelling = Wird abgebrochen...
+estimating-fitting = Der Körper wird an { $n ->
+    [one] 1 Messwert
+   *[other] { $n } Messwerte
+  } angepasst; Esc bricht ab.
+estimating-cancel = abbrechen
+estimating-cancel-help = die Berechnung abbrechen (die Messwerte bleiben, wie sie sind)
+estimating-back = zurück zur Messung
+estimating-back-help = zurück zur Messung
+estimating-cancelled = Berechnung abgebrochen; die Messwerte sind unverändert
+
+## History screen
+
+history-title = Sitzungen ({ $n })
+history-title-loading = Sitzungen (wird geladen...)
+history-col-id = ID
+history-col-customer = Kunde
+history-col-set = Satz
+history-col-status = Status
+history-col-readings = MW
+history-col-updated = geändert (UTC)
+history-empty = Noch keine Sitzungen gespeichert
+status-open = offen
+status-done = fertig
+status-abandoned = verworfen
+history-confirm-delete = löschen
+history-confirm-delete-help = endgültig löschen
+history-keep = behalten
+history-keep-help = behalten
+history-keep-it = behalten
+history-move-help = eine Sitzung der Liste wählen (auch k / j)
+history-reopen = öffnen
+history-reopen-help = die Sitzung zum Messen wieder öffnen (auch o)
+history-result = Ergebnis
+history-result-help = ihr gespeichertes Ergebnis zeigen (nichts wird neu berechnet)
+history-estimate = berechnen
+history-estimate-help = die Sitzung neu berechnen
+history-export = exportieren
+history-export-help = exportieren (ihr gespeichertes Ergebnis, wenn es zu ihren Messwerten gehört)
+history-delete = löschen
+history-delete-help = die Sitzung löschen (fragt vorher; auch D)
+history-back = zurück
+history-back-help = zurück zum vorigen Bildschirm (auch b)
+history-reload-help = die Liste neu laden
+history-deleted = Sitzung { $id } gelöscht
+history-kept = Sitzung behalten
+history-delete-title = Löschen?
+history-delete-question = Sitzung { $id } endgültig löschen? ({ $customer }, { $readings ->
+    [one] 1 Messwert
+   *[other] { $readings } Messwerte
+  }, { $retaken } neu)
+
+## The runner (what failed, and what to do)
+
+run-keyboard-failed = Tastatur nicht lesbar: { $error }; die Station neu starten
+run-open-failed = Sitzung { $id } lässt sich nicht öffnen: { $error }
+run-capture-failed = der übernommene Wert lässt sich nicht speichern: { $error }
+run-no-stored-estimate = Sitzung { $session } hat kein gespeichertes Ergebnis: e drücken, um es zu berechnen
+run-withdraw-failed = Messwert { $id } lässt sich nicht zurücknehmen: { $error }
+run-mark-failed = die Markierung von { $name } lässt sich nicht speichern: { $error }
+run-status-failed = Sitzung { $id } lässt sich nicht als { $status } markieren: { $error }
+run-list-failed = die Sitzungen lassen sich nicht lesen: { $error }
+run-delete-failed = Sitzung { $id } lässt sich nicht löschen: { $error }
+run-no-sim-tape = außerhalb der Demo gibt es kein simuliertes Maßband
+run-terminal-failed = das Terminal lässt sich nicht einrichten
+run-keyboard-thread-failed = der Tastatur-Thread lässt sich nicht starten
+run-log-open-failed = die Protokolldatei { $path } lässt sich nicht öffnen
+run-log-written = Protokollmeldungen dieses Laufs: { $path }
+run-internal-error = die Oberfläche stoppte bei einem internen Fehler (Details in { $path }); jeder Messwert ist gespeichert: neu starten und die Sitzung fortsetzen
+
+## The demo's simulated tape
+
+sim-no-value = der simulierte Kunde hat keinen Wert für { $name }; mit Enter übernehmen
+sim-stopped = das simulierte Maßband hat aufgehört; die Demo neu starten

@@ -1,0 +1,262 @@
+# tapeshape station: operator text, English (complete; the fallback of
+# every other language). Fluent syntax: https://projectfluent.org/
+#
+# Every key here must exist in every other locales/<lang>/station.ftl and
+# every id the sources use must exist here (tests/i18n_catalogue.rs).
+# Padding and the spaces around a message are the code's: Fluent trims a
+# message's leading and trailing blanks.
+# Fixed machine-readable words (line mode's `session`, `port`, `fault
+# queue-full`, ...) are not here: they stay English in every language.
+
+## Screens (top bar and titles)
+
+screen-device = Device
+screen-new-customer = New customer
+screen-measuring = Measuring
+screen-estimating = Estimating
+screen-result = Result
+screen-history = History
+
+## Top bar, banner, help
+
+top-session = session { $id } { $customer } { $set }
+top-tape = tape:
+top-demo-autopilot = DEMO autopilot
+top-demo-manual = DEMO manual
+banner-disconnected = TAPE DISCONNECTED: reconnecting... (d: details)
+banner-disconnected-kept = TAPE DISCONNECTED: reconnecting... session kept, no reading lost (d: details)
+banner-no-tape-kept = NO TAPE: plug it in; the session is kept (d: details)
+help-title = Keys
+help-anywhere = Anywhere
+help-close = any key closes this help
+
+## Keys as written in the footer and the help (single characters are
+## written as they are)
+
+key-ctrl-c = Ctrl-C
+key-enter = Enter
+key-esc = Esc
+key-tab = Tab
+key-shift-tab = S-Tab
+key-left-right = <-/->
+key-up-down = up/down
+key-backspace = Backspace
+key-del = Del
+key-any = any key
+key-any-other = any other key
+
+## Keys that work anywhere
+
+global-quit-now-help = quit at once
+global-help = help
+global-help-help = this help (any key closes it)
+global-device = device
+global-device-help = the device screen: the tape's connection, versions and faults
+global-history = history
+global-history-help = the history of sessions
+global-quit = quit
+global-quit-help = quit, pressed twice (every reading taken is already stored)
+
+## Notices
+
+notice-taken-over = You have the keyboard: the simulated operator stopped (? for keys)
+notice-quit-again = Press q again to quit (every reading taken is already stored)
+notice-gap = Tape sent reading { $got } before { $expected }: waiting for it to resend
+notice-unassigned = The tape holds a reading ({ $value }): it is kept on the tape until a measurement is chosen
+notice-commit-failed = Could not store { $value } ({ $error }); the tape keeps it
+
+## Device screen
+
+device-title = Tape
+device-port = port
+device-state = state
+device-why = why
+device-id = device id
+device-boot = boot
+device-firmware = firmware
+device-protocol = protocol
+device-device = device
+device-no-hello = no hello yet
+device-host = host
+device-host-value = tapeshape { $version } protocol { $protocol }
+device-queue = tape queue
+device-queue-value = { $n } of { $capacity } unacknowledged
+device-link = link
+device-link-value = { $bad } bad frames, { $lost } connections lost
+device-live = live
+device-faults = Recent faults
+device-no-faults = none
+device-back = back
+device-back-help = back to the screen before (also b or d)
+device-reconnected = Tape reconnected: carry on (readings it held are being stored)
+connection-starting = starting
+connection-waiting = no tape (waiting)
+connection-port-open = port open, handshake
+connection-connected = connected
+connection-mismatch = WRONG VERSION
+connection-disconnected = DISCONNECTED
+connection-stopped = stopped
+
+## Device faults (after the fault's fixed word, e.g. `queue-full:`)
+
+fault-queue-full = the tape's queue ({ $capacity }) is full; { $value } was NOT recorded, take it again
+fault-queue-recovered = { $held } held
+fault-tape-silent = no line from the tape for { $seconds } s; check its cable
+fault-line-rejected = the tape sent { $what } ({ $total } since boot); if this repeats, check the tape's cable
+fault-version-mismatch = the tape speaks protocol { $device }, it was greeted with { $host }
+fault-host-frame-bad = the tape dropped a frame from us ({ $total } since boot)
+reject-garbage = something that is not a tape line
+reject-partial = a cut-off line ({ $len } of 19 characters)
+reject-overlong = a line longer than 19 characters
+reject-bad-field = a line whose field { $field } is not what a tape sends
+reject-negative = a negative length
+reject-out-of-range = a length it cannot measure ({ $value })
+
+## New customer screen
+
+new-customer-title = New customer
+form-customer = customer id
+form-customer-help = opaque; no name needed
+form-sex = sex
+form-sex-help = f / m
+form-age = age (optional)
+form-age-help = years
+form-set = measurements
+form-set-help = <- -> to choose
+form-custom-file = custom file
+form-file = set file
+form-file-help = TOML file
+form-consent = their data
+form-consent-help = ask them: k keep / v visit
+form-file-blurb = a measurement set file (TOML, as host/measure/sets/*.toml)
+form-enter-starts = Enter starts the session; readings are stored as they are taken.
+sex-none = not given
+sex-female = female
+sex-male = male
+consent-keep = keep my data
+consent-visit = this visit only
+set-blurb = { $name }: { $count } measurements. { $description }
+set-description-quick = The fitting-room set (about two minutes with one tape): stature, chest/bust, waist at the navel, hip, neck, inside leg, arm length, thigh and upper arm.
+set-description-ansur = ANSUR II dimensions that can be taken on a standing body (heights, breadths, depths, girths, segment lengths, arcs), each named by its ANSUR column, for checking predictions against real people.
+set-description-paper34 = The paper's 34 body measurements (14 lengths, hip/waist/chest/head circumferences, knee and arm loops of 4 geodesics each): the set the method was published with, for reproducing its experiments.
+form-error-customer = Give a customer id (any text; a new one is suggested)
+form-error-age = Age { $age } is not between 16 and 110: correct it or leave it empty
+form-error-file = Give the path of the measurement set file (TOML)
+form-next-field = field
+form-next-field-help = next field (also down)
+form-previous-field-help = previous field (also up)
+form-choose = choose
+form-choose-help = choose the sex, the measurement set or the data choice
+form-start = start
+form-start-help = start the session; readings are stored as they are taken
+form-female-key = f
+form-female-help = female
+form-male-help = male
+form-delete-char-help = delete the last character typed
+form-keep-help = keep my data (the chain keeps the sessions until the customer asks to erase them)
+form-visit-help = this visit only (purged after the hub's retention period)
+resume-key = y
+resume-title = Resume?
+resume-resume = resume
+resume-resume-help = resume
+resume-new = new customer
+resume-new-help = start a new customer
+resume-close-help = close the offer (the session stays open; find it under h)
+resume-not-finished = Session { $session } (customer { $customer }, { $set }) is not finished:
+resume-no-set = no set
+resume-readings = { $n } readings are stored. Resume it with them?
+resume-declined = Session { $session } stays open; find it under h (history)
+
+## Measurements of the quick set (the measuring flow): the operator's names
+
+measure-quick-stature = Height
+measure-quick-chest = Chest / bust
+measure-quick-waist = Waist (at the navel)
+measure-quick-hip = Hip
+measure-quick-neck = Neck (base)
+measure-quick-inside_leg = Inside leg
+measure-quick-arm_length = Arm length
+measure-quick-thigh = Thigh
+measure-quick-upper_arm = Upper arm
+
+## Estimating screen
+
+estimating-title = Estimating the body
+stage-check = check readings
+stage-start = first guess (feature analysis)
+stage-step1 = fit shape space
+stage-step2 = refine surface
+stage-done = done
+estimating-refused = The estimate was refused:
+estimating-refused-back = Esc goes back to measuring: retake the readings named above.
+estimating-cancelling = Cancelling...
+estimating-fitting = Fitting the body to { $n ->
+    [one] { $n } reading
+   *[other] { $n } readings
+  }; Esc cancels.
+estimating-cancel = cancel
+estimating-cancel-help = cancel the estimate (the readings stay as they are)
+estimating-back = back to measuring
+estimating-back-help = back to measuring
+estimating-cancelled = Estimate cancelled; the readings are unchanged
+
+## History screen
+
+history-title = Sessions ({ $n })
+history-title-loading = Sessions (loading...)
+history-col-id = id
+history-col-customer = customer
+history-col-set = set
+history-col-status = status
+history-col-readings = rd
+history-col-updated = updated (UTC)
+history-empty = No sessions stored yet
+status-open = open
+status-done = done
+status-abandoned = abandoned
+history-confirm-delete = delete
+history-confirm-delete-help = delete it for good
+history-keep = keep
+history-keep-help = keep it
+history-keep-it = keep it
+history-move-help = choose a session in the list (also k / j)
+history-reopen = reopen
+history-reopen-help = reopen the session to measure (also o)
+history-result = result
+history-result-help = show its stored estimate (nothing is estimated again)
+history-estimate = estimate
+history-estimate-help = estimate the session again
+history-export = export
+history-export-help = export it (its stored estimate if that is of its readings)
+history-delete = delete
+history-delete-help = delete the session (asks first; also D)
+history-back = back
+history-back-help = back to the screen before (also b)
+history-reload-help = load the list again
+history-deleted = Session { $id } deleted
+history-kept = Kept the session
+history-delete-title = Delete?
+history-delete-question = Delete session { $id } ({ $customer }, { $readings } readings, { $retaken } retaken) for good?
+
+## The runner (what failed, and what to do)
+
+run-keyboard-failed = reading the keyboard: { $error }; restart the station
+run-open-failed = opening session { $id }: { $error }
+run-capture-failed = storing the captured value: { $error }
+run-no-stored-estimate = session { $session } has no stored estimate: press e to estimate it
+run-withdraw-failed = withdrawing reading { $id }: { $error }
+run-mark-failed = storing the mark on { $name }: { $error }
+run-status-failed = marking session { $id } { $status }: { $error }
+run-list-failed = reading the sessions: { $error }
+run-delete-failed = deleting session { $id }: { $error }
+run-no-sim-tape = there is no simulated tape outside the demo
+run-terminal-failed = setting up the terminal
+run-keyboard-thread-failed = starting the keyboard thread
+run-log-open-failed = opening the log file { $path }
+run-log-written = log messages of this run: { $path }
+run-internal-error = the interface stopped on an internal error (details in { $path }); every reading taken is stored: start again and resume the session
+
+## The demo's simulated tape
+
+sim-no-value = the simulated customer has no value for { $name }; take it with Enter instead
+sim-stopped = the simulated tape stopped; start the demo again
