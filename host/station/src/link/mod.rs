@@ -45,6 +45,10 @@
 //! * **Bad frames** (COBS, CRC, undecodable) are counted and dropped
 //!   ([`LinkEvent::BadFrame`]); the decoder resynchronises at the next
 //!   delimiter.
+//!
+//! Which port: the caller's. [`probe`] finds it when the operator gave
+//! none (the serial ports that look like a tape station, each sent one
+//! hello with the same opening and framing as here, nothing acknowledged).
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
