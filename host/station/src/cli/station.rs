@@ -781,3 +781,70 @@ fn find_kiosk(config: ProbeConfig) -> anyhow::Result<Option<PathBuf>> {
         survey = look()?;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::probe::Candidate;
+    use tapeshape_protocol::{DeviceHello, SoftwareVersion, PROTOCOL_VERSION};
+
+    fn answered(path: &str, device_id: u64) -> Probed {
+        Probed {
+            candidate: Candidate::named(path),
+            outcome: Outcome::Answered(DeviceHello {
+                protocol: PROTOCOL_VERSION,
+                firmware: SoftwareVersion {
+                    major: 1,
+                    minor: 0,
+                    patch: 0,
+                },
+                device_id,
+                boot_id: 3,
+                queue_capacity: 32,
+            }),
+        }
+    }
+
+    #[test]
+    fn two_stations_in_line_mode_name_the_port_of_each() {
+        let survey = Survey {
+            ports: vec![
+                answered("/nonexistent/ttyACM0", 0xa),
+                answered("/nonexistent/ttyACM1", 0xb),
+            ],
+        };
+        let Decision::Several(ps) = survey.decision() else {
+            panic!("two stations expected");
+        };
+        let text = several_error(&ps).to_string();
+        assert!(text.starts_with("2 tape stations answered"), "{text}");
+        assert!(text.contains("--port /nonexistent/ttyACM0   (tape station 000000000000000a"));
+        assert!(text.contains("--port /nonexistent/ttyACM1   (tape station 000000000000000b"));
+    }
+
+    #[test]
+    fn the_line_mode_repeats_itself_only_when_what_it_sees_changes() {
+        let port = |outcome| Survey {
+            ports: vec![Probed {
+                candidate: Candidate::named("/nonexistent/ttyUSB0"),
+                outcome,
+            }],
+        };
+        let talk = |bytes| Outcome::NotTheProtocol {
+            bytes,
+            bad_frames: 1,
+            waited: Duration::from_millis(500),
+        };
+        // A few more bytes of the same garbage: the same.
+        assert_eq!(survey_key(&port(talk(10))), survey_key(&port(talk(12))));
+        // Another kind of answer: said again.
+        assert_ne!(
+            survey_key(&port(talk(10))),
+            survey_key(&port(Outcome::Busy))
+        );
+        assert_ne!(
+            survey_key(&port(Outcome::Busy)),
+            survey_key(&Survey::default())
+        );
+    }
+}
