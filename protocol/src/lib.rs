@@ -44,6 +44,7 @@ extern crate std;
 
 mod frame;
 mod msg;
+pub mod usb;
 
 pub use frame::{
     encode, encode_payload, FeedIter, FrameDecoder, FrameError, CRC16, MAX_FRAME, MAX_PAYLOAD,

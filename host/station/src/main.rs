@@ -22,8 +22,10 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Connect to the tape and record a session's readings (prints events line by line).
+    /// Connect to the tape (found by itself, or --port) and run the kiosk, or record a session line by line.
     Station(cli::station::Args),
+    /// List the serial ports and say which one is a tape station (the hello each answered, or why not).
+    Ports(cli::ports::Args),
     /// List the stored sessions.
     Sessions(cli::sessions::Args),
     /// Show, close or delete one session.
@@ -83,6 +85,7 @@ fn main() -> ExitCode {
     }
     let result = match args.command {
         Command::Station(a) => cli::station::run(a, &args.global),
+        Command::Ports(a) => cli::ports::run(a, &args.global),
         Command::Sessions(a) => cli::sessions::run(a, &args.global),
         Command::Session(a) => cli::session::run(a, &args.global),
         #[cfg(feature = "demo")]

@@ -35,6 +35,9 @@ use embassy_usb::class::cdc_acm::{BufferedReceiver, CdcAcmClass, CdcAcmError, Se
 use embassy_usb::UsbDevice;
 use embedded_io_async::{Read, Write};
 use static_cell::StaticCell;
+// The USB vendor and product id, manufacturer and product strings: shared with the host,
+// which finds the station's port by them (`tapeshape_protocol::usb`).
+use tapeshape_firmware::protocol::usb as usb_id;
 use tapeshape_firmware::{run, Clock, Config, Device};
 
 bind_interrupts!(struct Irqs {
@@ -43,10 +46,6 @@ bind_interrupts!(struct Irqs {
     CLOCK_POWER => usb::vbus_detect::InterruptHandler;
 });
 
-/// USB vendor id: pid.codes, the open-source vendor id.
-const USB_VID: u16 = 0x1209;
-/// USB product id: pid.codes' test id 0x0001 (for development; a product registers its own).
-const USB_PID: u16 = 0x0001;
 /// Full-speed bulk packet size of the CDC-ACM data endpoints, bytes.
 const USB_PACKET: u16 = 64;
 
@@ -250,9 +249,9 @@ async fn main(spawner: Spawner) {
     );
 
     let driver = Driver::new(p.USBD, Irqs, HardwareVbusDetect::new(Irqs));
-    let mut usb_config = embassy_usb::Config::new(USB_VID, USB_PID);
-    usb_config.manufacturer = Some("tapeshape");
-    usb_config.product = Some("tapeshape tape station");
+    let mut usb_config = embassy_usb::Config::new(usb_id::VID, usb_id::PID);
+    usb_config.manufacturer = Some(usb_id::MANUFACTURER);
+    usb_config.product = Some(usb_id::PRODUCT);
     usb_config.serial_number = Some(usb_serial(device_id));
     usb_config.max_power = 100;
     usb_config.max_packet_size_0 = 64;

@@ -51,6 +51,7 @@ pub mod demo;
 pub mod hub;
 pub mod measure;
 pub mod moved;
+pub mod ports;
 pub mod predict;
 pub mod session;
 pub mod sessions;

@@ -1,13 +1,24 @@
 //! `tapeshape station`: the fitting-room station on a real tape.
 //!
-//! `tapeshape station --port PATH` runs the kiosk terminal interface
-//! ([`crate::tui`]). With `--customer`, `--session` or `--resume` it runs
-//! the plain line mode instead, which scripts and end-to-end tests drive:
-//! one line per event for one session. Every line on stdout starts with a fixed word (`session`, `port`,
-//! `connected`, `live`, `next`, `committed`, `kept`, `complete`, `duplicate`, `gap`, `held`,
+//! `tapeshape station` runs the kiosk terminal interface ([`crate::tui`]).
+//! With `--customer`, `--session` or `--resume` it runs the plain line mode
+//! instead, which scripts and end-to-end tests drive: one line per event
+//! for one session. Every line on stdout starts with a fixed word
+//! (`found`, `looking`, `seen`, `session`, `port`, `connected`, `live`,
+//! `next`, `committed`, `kept`, `complete`, `duplicate`, `gap`, `held`,
 //! `commit-failed`, `fault`, `status`, `button`, `bad-frame`,
 //! `disconnected`, `waiting`, `done`, `stopped`) so it can be followed by
 //! eye or by a program. Logs go to stderr.
+//!
+//! The tape's port: `--port PATH` when given (it wins); otherwise the
+//! station finds it ([`crate::link::probe`]): it probes the serial ports
+//! that look like a tape station and connects to the one that answers,
+//! under its `/dev/serial/by-id` name when it has one (so that an unplug
+//! and replug that renumbers `ttyACM` still finds it). With two answering,
+//! the kiosk asks which (a key per station) and the line mode stops with
+//! an error naming the `--port` of each. With none, it says what to plug
+//! in and what it saw, and looks again every second until one answers
+//! (q or Ctrl-C leaves).
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
@@ -17,6 +28,7 @@ use anyhow::{bail, Context as _};
 use tapeshape_protocol::UnitShown;
 
 use crate::cli::{mono_wanted, reading_tolerance, Global};
+use crate::link::probe::{self, Decision, Outcome, ProbeConfig, Probed, Survey, SystemPorts};
 use crate::link::{Link, LinkConfig, LinkEvent, Naming, Unassigned};
 use crate::session::Sessions;
 use crate::store::{Session, SessionId, SessionStatus};
@@ -29,8 +41,9 @@ use crate::text::{describe_fault, format_tenth_mm};
 ))]
 pub struct Args {
     /// Serial port of the tape's firmware (e.g. /dev/ttyACM0, or a simulator's pty path).
+    /// Without it the station finds the tape among the serial ports (see `tapeshape ports`).
     #[arg(long, value_name = "PATH")]
-    pub port: PathBuf,
+    pub port: Option<PathBuf>,
 
     /// Line mode: start a new session for this customer id (opaque text).
     /// Without --customer, --session or --resume the terminal interface runs.
@@ -140,14 +153,13 @@ fn line_mode(args: &Args) -> bool {
     args.customer.is_some() || args.session.is_some() || args.resume
 }
 
-/// Runs the terminal interface on `port` (the real-tape station).
+/// Runs the terminal interface on the tape's port (the real-tape station).
 fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
     use std::io::IsTerminal as _;
     if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
         bail!(
             "the station's interface needs a terminal; for scripts use the line mode: \
-             tapeshape station --port {} --customer ID [--set quick]",
-            args.port.display()
+             tapeshape station [--port PATH] --customer ID [--set quick]"
         );
     }
     for (given, what) in [
@@ -168,9 +180,19 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         }
         None => "quick".to_string(),
     };
+    // The chart is read before the search, so that a bad one stops the
+    // start at once, not after the tape is found.
+    let data_dir = global.data_dir()?;
+    let chart = station_chart(args.chart.as_deref(), &data_dir)?;
+    let port = match &args.port {
+        Some(p) => p.clone(),
+        None => match find_kiosk(probe_config(args.baud))? {
+            Some(p) => p,
+            None => return Ok(()),
+        },
+    };
     let sessions = global.open_sessions()?;
     let sync = args.hub.start(&sessions)?;
-    let data_dir = global.data_dir()?;
     let export_dir = match args.export_dir {
         Some(d) => d,
         None => data_dir.join("exports"),
@@ -181,7 +203,7 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         .build()
         .context("starting the async runtime")?;
     let mut services = crate::services::station::StationServices::new(sessions.clone(), tolerance);
-    if let Some(chart) = station_chart(args.chart.as_deref(), &data_dir)? {
+    if let Some(chart) = chart {
         services = services.with_chart(chart);
     }
     let services = std::sync::Arc::new(services);
@@ -195,8 +217,8 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
         });
     let options = crate::tui::runner::RunOptions {
         sessions,
-        port_label: args.port.display().to_string(),
-        port: args.port,
+        port_label: port.display().to_string(),
+        port,
         baud: args.baud,
         mono: mono_wanted(args.mono),
         export_dir,
@@ -213,7 +235,9 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
 /// Runs the station until Ctrl-C (or completion with
 /// `--exit-when-complete`).
 pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
-    check_port(&args.port)?;
+    if let Some(port) = &args.port {
+        check_port(port)?;
+    }
     if !line_mode(&args) {
         return run_tui(args, global);
     }
@@ -223,6 +247,21 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
              the line mode (--customer, --session, --resume) only records readings"
         );
     }
+    // Found before the session is chosen, so that a search that ends
+    // (two stations, Ctrl-C) leaves no new session behind.
+    let port = match &args.port {
+        Some(p) => p.clone(),
+        None => {
+            let runtime = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()
+                .context("starting the async runtime")?;
+            match runtime.block_on(find_line(probe_config(args.baud)))? {
+                Some(p) => p,
+                None => return Ok(()),
+            }
+        }
+    };
     let sessions = global.open_sessions()?;
     let sync = args.hub.start(&sessions)?;
     let session = choose_session(&sessions, &args)?;
@@ -247,7 +286,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
         .build()
         .context("starting the async runtime")?;
     let options = RecordOptions {
-        port: args.port.clone(),
+        port,
         baud: args.baud,
         live: args.live,
         exit_when_complete: args.exit_when_complete,
@@ -610,4 +649,292 @@ pub async fn record(
         detail.current_readings().count()
     )?;
     result
+}
+
+/// How the station probes for its tape: the defaults at `baud`.
+fn probe_config(baud: u32) -> ProbeConfig {
+    ProbeConfig {
+        baud_rate: baud,
+        ..ProbeConfig::default()
+    }
+}
+
+/// How often the search looks again while no station answers.
+const LOOK_AGAIN: Duration = Duration::from_secs(1);
+
+/// The path to connect to for a found station: its stable name.
+fn connect_path(p: &Probed) -> PathBuf {
+    probe::stable_path(&p.candidate.path)
+}
+
+/// The line-mode error for two or more answering stations.
+fn several_error(stations: &[&Probed]) -> anyhow::Error {
+    let mut text = format!(
+        "{} tape stations answered; give the one to use with --port:",
+        stations.len()
+    );
+    for p in stations {
+        text.push_str(&format!(
+            "\n  --port {}   ({})",
+            connect_path(p).display(),
+            p.outcome
+        ));
+    }
+    anyhow::anyhow!(text)
+}
+
+/// What the operator sees of a survey without a station, as a key that
+/// changes only when the ports or their kind of outcome change (not when a
+/// talkative port sent a few more bytes), so the line mode does not repeat
+/// itself every second.
+fn survey_key(survey: &Survey) -> Vec<(PathBuf, std::mem::Discriminant<Outcome>)> {
+    survey
+        .ports
+        .iter()
+        .map(|p| (p.candidate.path.clone(), std::mem::discriminant(&p.outcome)))
+        .collect()
+}
+
+/// The line mode's search (see the module docs): `found ...` and the path,
+/// or `looking` / `seen` lines while none answers, an error naming each
+/// `--port` when several answer, `None` after Ctrl-C.
+async fn find_line(config: ProbeConfig) -> anyhow::Result<Option<PathBuf>> {
+    let lister = SystemPorts::default();
+    let ctrl_c = tokio::signal::ctrl_c();
+    tokio::pin!(ctrl_c);
+    let mut last_key = None;
+    loop {
+        let survey = probe::survey(&lister, &config).await?;
+        match survey.decision() {
+            Decision::One(p) => {
+                let path = connect_path(p);
+                outln!("found {}: {}", path.display(), p.outcome)?;
+                return Ok(Some(path));
+            }
+            Decision::Several(ps) => return Err(several_error(&ps)),
+            Decision::None => {
+                let key = survey_key(&survey);
+                if last_key.as_ref() != Some(&key) {
+                    outln!(
+                        "looking no tape station answered: plug the tape station's USB cable \
+                         into this computer (on the nRF52840-DK: the nRF USB connector, not the \
+                         debug one); looking again every second, Ctrl-C leaves"
+                    )?;
+                    if survey.ports.is_empty() {
+                        outln!("seen no serial ports")?;
+                    }
+                    for p in &survey.ports {
+                        outln!("seen {}", probe::describe(p))?;
+                    }
+                    last_key = Some(key);
+                }
+            }
+        }
+        tokio::select! {
+            _ = tokio::time::sleep(LOOK_AGAIN) => {}
+            r = &mut ctrl_c => {
+                r.context("listening for Ctrl-C")?;
+                outln!("stopped (Ctrl-C) before a tape station was found")?;
+                return Ok(None);
+            }
+        }
+    }
+}
+
+/// Raw mode for the kiosk's search screen, left on drop (also on an
+/// error), so the terminal is never left raw.
+struct RawScreen;
+
+impl RawScreen {
+    fn enter() -> anyhow::Result<RawScreen> {
+        crossterm::terminal::enable_raw_mode().context("setting up the terminal")?;
+        Ok(RawScreen)
+    }
+
+    /// Clears the screen and writes `text` from the top (raw mode needs
+    /// `\r\n` line ends).
+    fn draw(&self, text: &str) -> anyhow::Result<()> {
+        use std::io::Write as _;
+        let mut out = std::io::stdout().lock();
+        crossterm::execute!(
+            out,
+            crossterm::terminal::Clear(crossterm::terminal::ClearType::All),
+            crossterm::cursor::MoveTo(0, 0)
+        )?;
+        out.write_all(text.replace('\n', "\r\n").as_bytes())?;
+        out.flush()?;
+        Ok(())
+    }
+}
+
+impl Drop for RawScreen {
+    fn drop(&mut self) {
+        let _ = crossterm::terminal::disable_raw_mode();
+        let _ = crossterm::execute!(
+            std::io::stdout(),
+            crossterm::terminal::Clear(crossterm::terminal::ClearType::All),
+            crossterm::cursor::MoveTo(0, 0)
+        );
+    }
+}
+
+/// A key the search screen acts on.
+enum Key {
+    Leave,
+    Digit(usize),
+    Other,
+}
+
+/// Waits up to `wait` for a key press.
+fn next_key(wait: Duration) -> anyhow::Result<Option<Key>> {
+    use crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
+    if !event::poll(wait).context("reading the keyboard")? {
+        return Ok(None);
+    }
+    let Event::Key(k) = event::read().context("reading the keyboard")? else {
+        return Ok(Some(Key::Other));
+    };
+    if k.kind != KeyEventKind::Press {
+        return Ok(Some(Key::Other));
+    }
+    Ok(Some(match k.code {
+        KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => Key::Leave,
+        KeyCode::Char('q') | KeyCode::Esc => Key::Leave,
+        KeyCode::Char(c) => match c.to_digit(10) {
+            Some(d) if d > 0 => Key::Digit(d as usize),
+            _ => Key::Other,
+        },
+        _ => Key::Other,
+    }))
+}
+
+/// The kiosk's search (see the module docs): with exactly one station at
+/// the first look, no screen at all; otherwise a small screen that lists
+/// what it saw and looks again every second, or asks which station (a
+/// digit key). `None` when the operator leaves (q, Esc, Ctrl-C).
+fn find_kiosk(config: ProbeConfig) -> anyhow::Result<Option<PathBuf>> {
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    let lister = SystemPorts::default();
+    let look = || runtime.block_on(probe::survey(&lister, &config));
+    let mut survey = look()?;
+    if let Decision::One(p) = survey.decision() {
+        return Ok(Some(connect_path(p)));
+    }
+    let screen = RawScreen::enter()?;
+    let mut shown = String::new();
+    loop {
+        let (text, choices) = match survey.decision() {
+            Decision::One(p) => return Ok(Some(connect_path(p))),
+            Decision::Several(ps) => {
+                let mut text = format!(
+                    "tapeshape station\n\n{} tape stations answered. Which one is this \
+                     station's tape?\n",
+                    ps.len()
+                );
+                for (i, p) in ps.iter().enumerate().take(9) {
+                    text.push_str(&format!(
+                        "\n  {}  {}\n     {}\n",
+                        i + 1,
+                        connect_path(p).display(),
+                        p.outcome
+                    ));
+                }
+                text.push_str("\nPress its number; q leaves.");
+                let choices: Vec<PathBuf> = ps.iter().take(9).map(|p| connect_path(p)).collect();
+                (text, choices)
+            }
+            Decision::None => (
+                format!(
+                    "tapeshape station\n\n{}\n\nLooking again every second; q leaves.",
+                    survey.nothing_found()
+                ),
+                Vec::new(),
+            ),
+        };
+        if text != shown {
+            screen.draw(&text)?;
+            shown = text;
+        }
+        match next_key(LOOK_AGAIN)? {
+            Some(Key::Leave) => return Ok(None),
+            Some(Key::Digit(d)) if d <= choices.len() => {
+                return Ok(Some(choices[d - 1].clone()));
+            }
+            // A key that means nothing here: wait for the next one
+            // without probing again.
+            Some(_) => continue,
+            None => {}
+        }
+        survey = look()?;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::probe::Candidate;
+    use tapeshape_protocol::{DeviceHello, SoftwareVersion, PROTOCOL_VERSION};
+
+    fn answered(path: &str, device_id: u64) -> Probed {
+        Probed {
+            candidate: Candidate::named(path),
+            outcome: Outcome::Answered(DeviceHello {
+                protocol: PROTOCOL_VERSION,
+                firmware: SoftwareVersion {
+                    major: 1,
+                    minor: 0,
+                    patch: 0,
+                },
+                device_id,
+                boot_id: 3,
+                queue_capacity: 32,
+            }),
+        }
+    }
+
+    #[test]
+    fn two_stations_in_line_mode_name_the_port_of_each() {
+        let survey = Survey {
+            ports: vec![
+                answered("/nonexistent/ttyACM0", 0xa),
+                answered("/nonexistent/ttyACM1", 0xb),
+            ],
+        };
+        let Decision::Several(ps) = survey.decision() else {
+            panic!("two stations expected");
+        };
+        let text = several_error(&ps).to_string();
+        assert!(text.starts_with("2 tape stations answered"), "{text}");
+        assert!(text.contains("--port /nonexistent/ttyACM0   (tape station 000000000000000a"));
+        assert!(text.contains("--port /nonexistent/ttyACM1   (tape station 000000000000000b"));
+    }
+
+    #[test]
+    fn the_line_mode_repeats_itself_only_when_what_it_sees_changes() {
+        let port = |outcome| Survey {
+            ports: vec![Probed {
+                candidate: Candidate::named("/nonexistent/ttyUSB0"),
+                outcome,
+            }],
+        };
+        let talk = |bytes| Outcome::NotTheProtocol {
+            bytes,
+            bad_frames: 1,
+            waited: Duration::from_millis(500),
+        };
+        // A few more bytes of the same garbage: the same.
+        assert_eq!(survey_key(&port(talk(10))), survey_key(&port(talk(12))));
+        // Another kind of answer: said again.
+        assert_ne!(
+            survey_key(&port(talk(10))),
+            survey_key(&port(Outcome::Busy))
+        );
+        assert_ne!(
+            survey_key(&port(Outcome::Busy)),
+            survey_key(&Survey::default())
+        );
+    }
 }

@@ -45,6 +45,10 @@
 //! * **Bad frames** (COBS, CRC, undecodable) are counted and dropped
 //!   ([`LinkEvent::BadFrame`]); the decoder resynchronises at the next
 //!   delimiter.
+//!
+//! Which port: the caller's. [`probe`] finds it when the operator gave
+//! none (the serial ports that look like a tape station, each sent one
+//! hello with the same opening and framing as here, nothing acknowledged).
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -63,6 +67,7 @@ use tokio_serial::{DataBits, FlowControl, Parity, SerialStream, StopBits};
 use crate::store::{CommitOutcome, DeviceReading, SessionId, StoreError};
 
 mod events;
+pub mod probe;
 
 pub use events::{
     host_software_version, CommitError, Disconnect, LinkConfig, LinkCounters, LinkEvent, Naming,
@@ -155,6 +160,38 @@ impl Link {
         let join = tokio::spawn(task.run());
         (LinkHandle { cmd: cmd_tx }, ev_rx, join)
     }
+}
+
+/// Opens a serial port (8N1, no flow control) as the link does; the
+/// prober ([`probe`]) opens candidates the same way.
+///
+/// serialport opens exclusively (TIOCEXCL + flock) by default, so a second
+/// station on the same port fails here instead of stealing half the frames.
+fn open_port(path: &Path, baud_rate: u32) -> Result<SerialStream, PortError> {
+    let name = path.to_string_lossy();
+    let builder = tokio_serial::new(name.as_ref(), baud_rate)
+        .data_bits(DataBits::Eight)
+        .parity(Parity::None)
+        .stop_bits(StopBits::One)
+        .flow_control(FlowControl::None);
+    SerialStream::open(&builder).map_err(|e| PortError {
+        path: path.to_path_buf(),
+        error: Arc::new(e),
+    })
+}
+
+/// Frames `msg` (COBS + CRC, `tapeshape_protocol::encode`) and writes it.
+async fn write_msg(port: &mut SerialStream, msg: &HostMsg) -> Result<(), Disconnect> {
+    let mut out = [0u8; MAX_FRAME];
+    // Every HostMsg fits a frame (checked by the protocol crate's
+    // largest-message test); an error here would be a protocol bug.
+    let frame = encode(msg, &mut out).map_err(|error| Disconnect::Encode {
+        message: format!("{msg:?}"),
+        error,
+    })?;
+    port.write_all(frame)
+        .await
+        .map_err(|e| Disconnect::Write(Arc::new(e)))
 }
 
 /// Why a connection ended.
@@ -279,19 +316,7 @@ impl LinkTask {
     }
 
     fn open(&self) -> Result<SerialStream, PortError> {
-        let path = self.path.to_string_lossy();
-        let builder = tokio_serial::new(path.as_ref(), self.config.baud_rate)
-            .data_bits(DataBits::Eight)
-            .parity(Parity::None)
-            .stop_bits(StopBits::One)
-            .flow_control(FlowControl::None);
-        // serialport opens exclusively (TIOCEXCL + flock) by default, so a
-        // second station on the same port fails here instead of stealing
-        // half the frames.
-        SerialStream::open(&builder).map_err(|e| PortError {
-            path: self.path.clone(),
-            error: Arc::new(e),
-        })
+        open_port(&self.path, self.config.baud_rate)
     }
 
     async fn connection(&mut self, port: SerialStream) -> End {
@@ -381,17 +406,7 @@ impl LinkTask {
     }
 
     async fn write(&self, conn: &mut Conn, msg: &HostMsg) -> Result<(), Disconnect> {
-        let mut out = [0u8; MAX_FRAME];
-        // Every HostMsg fits a frame (checked by the protocol crate's
-        // largest-message test); an error here would be a protocol bug.
-        let frame = encode(msg, &mut out).map_err(|error| Disconnect::Encode {
-            message: format!("{msg:?}"),
-            error,
-        })?;
-        conn.port
-            .write_all(frame)
-            .await
-            .map_err(|e| Disconnect::Write(Arc::new(e)))
+        write_msg(&mut conn.port, msg).await
     }
 
     async fn send_hello(&self, conn: &mut Conn) -> Result<(), Disconnect> {
