@@ -19,6 +19,7 @@
 //! | 6 | front end | [`tui`] | the kiosk interface: `app` (router), one module per screen, the runner, the demo's simulated operator (`demo` feature) |
 //! | 7 | commands | [`cli`] | the subcommands of the `tapeshape` binary (`src/main.rs` dispatches): the line-mode station, the demo (`demo` feature), sessions, measure, predict, a customer's data, the hub (`hub` feature), ...; `moved` says where `eval` (now `tapeshape-eval`) went |
 
+pub mod card;
 pub mod check;
 pub mod cli;
 pub mod estimate;

@@ -128,12 +128,7 @@ impl ShowLength for Unit {
     }
 
     fn format_mm(self, mm: f64) -> String {
-        match self {
-            Unit::Mm => format!("{mm:.0} mm"),
-            Unit::Cm => format!("{:.1} cm", mm / 10.0),
-            Unit::M => format!("{:.3} m", mm / 1000.0),
-            Unit::In => format!("{:.2} in", mm / 25.4),
-        }
+        crate::text::format_length_mm(self, mm)
     }
 }
 
