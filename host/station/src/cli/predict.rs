@@ -197,15 +197,15 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         outln!("body: {}", path.display())?;
     }
     if let Some(path) = &args.card {
-        let card = crate::card::Card::new(
+        let card = crate::estimate::card::Card::new(
             &estimator,
             &estimate.report,
             estimate.mesh.clone(),
             None,
             sizes,
         );
-        let pdf = crate::card::card_pdf(&card)?;
-        crate::card::write_card(path, &pdf)?;
+        let pdf = crate::estimate::card::card_pdf(&card)?;
+        crate::estimate::card::write_card(path, &pdf)?;
         outln!("card: {}", path.display())?;
     }
     Ok(())

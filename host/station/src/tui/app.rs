@@ -252,6 +252,8 @@ pub enum Event {
     History(Vec<SessionSummary>),
     /// Result of [`Effect::Export`].
     Exported(Result<Vec<PathBuf>, String>),
+    /// Result of [`Effect::Card`]: the file written, or why not.
+    CardWritten(Result<PathBuf, String>),
     /// An effect failed: the message says what and what to do.
     Failed(String),
     /// Time passes (the runner's tick).
@@ -328,6 +330,14 @@ pub enum Effect {
         session: SessionId,
         /// Mesh format.
         format: MeshFormat,
+    },
+    /// Write the customer's card of the session's stored estimate into the
+    /// export folder; answer with [`Event::CardWritten`].
+    Card {
+        /// Session.
+        session: SessionId,
+        /// The unit the card prints lengths in (the screen's).
+        unit: Unit,
     },
     /// Load the session's stored estimate; answer with [`Event::ResultLoaded`].
     LoadResult(SessionId),
@@ -557,6 +567,7 @@ pub fn update(app: &mut App, event: Event) -> Vec<Effect> {
         Event::ResultLoaded(r) => result::on_loaded(app, r, &mut fx),
         Event::History(list) => history::on_loaded(app, list),
         Event::Exported(r) => result::on_exported(app, r, &mut fx),
+        Event::CardWritten(r) => result::on_card(app, r),
         Event::Failed(msg) => {
             if app.screen == Screen::NewCustomer {
                 app.form.error = Some(msg.clone());

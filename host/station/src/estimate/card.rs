@@ -269,7 +269,7 @@ fn glyph_width(c: char) -> u16 {
 
 /// The width of `text` set in Helvetica (or Helvetica-Oblique) at `size`
 /// points, in points; Helvetica-Bold is at most about 12 % wider, which
-/// [`wrap`] allows for.
+/// the line breaking allows for.
 pub fn text_width(text: &str, size: f32) -> f32 {
     text.chars().map(|c| f32::from(glyph_width(c))).sum::<f32>() * size / 1000.0
 }
@@ -729,9 +729,9 @@ pub fn card_pdf(card: &Card) -> Result<Vec<u8>, CardError> {
             flow.y -= 13.0;
             let (x0, x1) = (flow.x0, flow.x1);
             let w = x1 - x0;
-            let label = fit(&v.label, 10.0, w * 0.42);
+            let label = fit(&v.label, 10.0, w * 0.37);
             flow.text_at(x0, REGULAR, 10.0, 0.0, &label);
-            flow.text_at(x0 + w * 0.44, OBLIQUE, 8.5, 0.35, "from the body");
+            flow.text_at(x0 + w * 0.39, OBLIQUE, 8.5, 0.35, "from the body");
             flow.text_right(x0 + w * 0.80, 10.0, &format_length_mm(unit, v.value_mm));
             if let Some(sd) = v.sd_mm {
                 flow.text_right(x1, 10.0, &format!("± {}", format_length_mm(unit, sd)));
