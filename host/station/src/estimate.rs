@@ -20,6 +20,9 @@
 //! restart is exported again after it without estimating again
 //! ([`export_report`]).
 //!
+//! [`card`] makes the customer's card (a PDF) of an estimate; [`sizes`]
+//! the size per garment on a store's chart.
+//!
 //! Layer: a service (with `crate::check`), over the estimator; it knows nothing
 //! of sessions, screens or the store.
 
@@ -650,6 +653,7 @@ pub fn export_report(
     Ok(written)
 }
 
+pub mod card;
 pub mod sizes;
 
 #[cfg(test)]

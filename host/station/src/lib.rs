@@ -15,7 +15,7 @@
 //! | 2 | bottom | [`store`] | the SQLite session store: rows, migrations (`migrations/`), reads; its writes are crate-private steps of one transaction |
 //! | 3 | bottom | [`link`] | the serial link to the tape (frames, acks, reconnects); commits through its `ReadingSink` trait |
 //! | 4 | session | [`session`] | what a session is: start, open, resume; readings from the tape (it is the link's `ReadingSink`) or the keyboard; undo, skip, marks; the stored estimate. Every change is one transaction of `Sessions::change` |
-//! | 5 | services | [`check`], [`estimate`], [`sync`] | checking a captured reading; estimating on a thread and exporting a body; pushing the outbox to the chain's hub and the returning-customer lookup |
+//! | 5 | services | [`check`], [`estimate`], [`sync`] | checking a captured reading; estimating on a thread and exporting a body, the customer's card (`estimate::card`); pushing the outbox to the chain's hub and the returning-customer lookup |
 //! | 6 | services | [`services`] | the one boundary the front ends use (`Services`), and `StationServices` over the estimator and the session layer |
 //! | 7 | front end | [`tui`] | the kiosk interface: `app` (router), one module per screen, the runner, the demo's simulated operator (`demo` feature) |
 //! | 8 | commands | [`cli`] | the subcommands of the `tapeshape` binary (`src/main.rs` dispatches): the line-mode station, the demo (`demo` feature), sessions, measure, predict, a customer's data, the hub (`hub` feature), ...; `moved` says where `eval` (now `tapeshape-eval`) went |

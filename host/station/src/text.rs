@@ -19,6 +19,18 @@ pub fn format_time_ms(ms: i64) -> String {
     humantime::format_rfc3339_seconds(t).to_string()
 }
 
+/// A length in millimetres in `unit` with its symbol, to the tape's
+/// resolution in that unit (`98.2 cm`, `38.66 in`, `982 mm`, `0.982 m`).
+pub fn format_length_mm(unit: tapeshape_estimator::Unit, mm: f64) -> String {
+    use tapeshape_estimator::Unit;
+    match unit {
+        Unit::Mm => format!("{mm:.0} mm"),
+        Unit::Cm => format!("{:.1} cm", mm / 10.0),
+        Unit::M => format!("{:.3} m", mm / 1000.0),
+        Unit::In => format!("{:.2} in", mm / 25.4),
+    }
+}
+
 /// Formats a length in tenths of a millimetre as millimetres (`951.2 mm`).
 pub fn format_tenth_mm(v: u32) -> String {
     format!("{}.{} mm", v / 10, v % 10)

@@ -462,6 +462,68 @@ fn estimate_progress_cancel_and_failure() {
 }
 
 #[test]
+fn p_writes_the_card_in_the_screens_unit_and_a_failed_card_keeps_the_session() {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[("stature", 17_650)]);
+    send(&mut a, [ch('e')]);
+    send(
+        &mut a,
+        [Event::Estimate(EstimateEvent::Done(Box::new(
+            tapeshape::services::EstimateSummary {
+                session: SessionId(3),
+                rows: Vec::new(),
+                plausibility: "typical".into(),
+                warnings: Vec::new(),
+                silhouettes: Default::default(),
+                seconds: 0.3,
+                sizes: Vec::new(),
+            },
+        )))],
+    );
+    assert_eq!(a.screen, Screen::Result);
+    // In the unit the screen shows (i: inches).
+    let fx = send(&mut a, [ch('i'), ch('p')]);
+    assert!(
+        fx.contains(&Effect::Card {
+            session: SessionId(3),
+            unit: Unit::In
+        }),
+        "{fx:?}"
+    );
+    // A card does not close the session (the export does).
+    assert!(!fx.iter().any(|e| matches!(e, Effect::SetStatus(..))));
+    let fx = send(
+        &mut a,
+        [Event::CardWritten(Err(
+            "writing the card /ro/session3-card.pdf: \
+             Read-only file system"
+                .into(),
+        ))],
+    );
+    assert!(fx.iter().all(|e| !matches!(e, Effect::SetStatus(..))));
+    let (_, msg) = a.notice.clone().unwrap();
+    assert!(
+        msg.contains("Read-only file system") && msg.contains("kept"),
+        "{msg}"
+    );
+    assert_eq!(a.screen, Screen::Result);
+    assert!(a.session.is_some() && a.result.summary.is_some());
+    assert_eq!(a.result.card, None);
+    send(
+        &mut a,
+        [Event::CardWritten(Ok("/tmp/x/session3-card.pdf".into()))],
+    );
+    assert_eq!(a.result.card, Some("/tmp/x/session3-card.pdf".into()));
+    assert!(a
+        .notice
+        .as_ref()
+        .unwrap()
+        .1
+        .contains("/tmp/x/session3-card.pdf"));
+}
+
+#[test]
 fn export_marks_the_session_done_and_history_delete_asks_first() {
     let mut a = app(false);
     connect(&mut a);

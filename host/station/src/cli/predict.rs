@@ -9,7 +9,8 @@
 //!
 //! Units: every value takes its unit (`176.5cm`, `1765mm`, `1.765m`,
 //! `69.5in`); a bare number is read as centimetres (what a tape shows) and
-//! the report says so. Output files go to a temporary name, then renamed.
+//! the report says so. Output files (the report, the mesh, the customer's
+//! card) go to a temporary name, then renamed.
 
 use std::path::{Path, PathBuf};
 
@@ -24,7 +25,8 @@ use crate::estimate::MeshFormat;
 #[command(
     after_help = "Values take a unit: 176.5cm, 1765mm, 1.765m, 69.5in. A number without a unit is read as cm.\n\
 Examples:\n  tapeshape predict --measure stature=176.5cm --measure chest=98cm --measure waist=84cm -o body.glb\n  \
-tapeshape predict --measurements customer.toml --report report.json -o body.obj\n  tapeshape predict --list"
+tapeshape predict --measurements customer.toml --report report.json -o body.obj\n  \
+tapeshape predict --measurements customer.toml --chart examples/size-charts/menswear.toml --card card.pdf\n  tapeshape predict --list"
 )]
 pub struct Args {
     /// Model file from `tapeshape train` [default: the embedded model, trained
@@ -68,6 +70,12 @@ pub struct Args {
     /// the report as "sizes".
     #[arg(long, value_name = "FILE")]
     pub chart: Option<PathBuf>,
+
+    /// Write the customer's card: a PDF with the body front and side, the
+    /// readings, what was read off the body and the sizes (with --chart);
+    /// "no session" (docs/card.md).
+    #[arg(long, value_name = "FILE")]
+    pub card: Option<PathBuf>,
 
     /// Write the body mesh (format by extension: .obj, .ply or .glb).
     #[arg(short, long, value_name = "FILE")]
@@ -187,6 +195,18 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     if let Some(path) = &args.out {
         write_mesh(&estimate.mesh, path)?;
         outln!("body: {}", path.display())?;
+    }
+    if let Some(path) = &args.card {
+        let card = crate::estimate::card::Card::new(
+            &estimator,
+            &estimate.report,
+            estimate.mesh.clone(),
+            None,
+            sizes,
+        );
+        let pdf = crate::estimate::card::card_pdf(&card)?;
+        crate::estimate::card::write_card(path, &pdf)?;
+        outln!("card: {}", path.display())?;
     }
     Ok(())
 }

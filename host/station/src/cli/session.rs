@@ -1,5 +1,6 @@
 //! `tapeshape session ...`: show one session's readings and stored
-//! estimate, export its stored estimate again, close or delete it.
+//! estimate (its sizes on a chart, its customer's card), export its stored
+//! estimate again, close or delete it.
 
 use std::path::PathBuf;
 
@@ -52,6 +53,14 @@ pub enum Action {
         /// stored estimate's size per garment.
         #[arg(long, value_name = "FILE")]
         chart: Option<PathBuf>,
+        /// Write the customer's card of the stored estimate (PDF: the body,
+        /// the readings, what was read off the body, the sizes with
+        /// --chart; docs/card.md).
+        #[arg(long, value_name = "FILE")]
+        card: Option<PathBuf>,
+        /// Lengths on the card in inches instead of centimetres.
+        #[arg(long, requires = "card")]
+        inches: bool,
     },
     /// Export the session's stored estimate again (no new estimate): the
     /// body in each format asked for, plus its report.
@@ -86,7 +95,12 @@ pub enum Action {
 pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
     let sessions = global.open_sessions()?;
     match args.action {
-        Action::Show { id, chart } => {
+        Action::Show {
+            id,
+            chart,
+            card,
+            inches,
+        } => {
             let store = sessions.store();
             // The chart first: a wrong one is said before anything prints.
             let chart = match &chart {
@@ -121,6 +135,26 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
                         )
                     })?;
                 outln!("{}", crate::estimate::sizes::sizes(estimator, &r, chart))?;
+            }
+            if let Some(path) = &card {
+                let Some(e) = &estimate else {
+                    bail!(
+                        "session {id} has no estimate yet: estimate it first, then make its card"
+                    );
+                };
+                let unit = if inches {
+                    tapeshape_estimator::Unit::In
+                } else {
+                    tapeshape_estimator::Unit::Cm
+                };
+                let pdf = crate::services::station::stored_card(
+                    e,
+                    &detail.session,
+                    chart.as_ref().map(|c| &c.1),
+                    unit,
+                )?;
+                crate::estimate::card::write_card(path, &pdf)?;
+                outln!("card: {}", path.display())?;
             }
         }
         Action::Export { id, dir, format } => {

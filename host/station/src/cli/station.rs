@@ -89,7 +89,8 @@ pub struct Args {
     #[arg(long)]
     pub mono: bool,
 
-    /// Folder for exported bodies and reports [default: DATA_DIR/exports].
+    /// Folder for exported bodies and reports, and the customers' cards (`p`)
+    /// [default: DATA_DIR/exports].
     #[arg(long, value_name = "DIR")]
     pub export_dir: Option<PathBuf>,
 

@@ -60,33 +60,52 @@ pub fn sizes(estimator: &Estimator, report: &EstimateReport, chart: &Chart) -> R
         // estimator checked them.
         let _ = readings.insert_measured(&c.name, c.value_mm, sd);
     }
-    let others: Vec<(&str, f64)> = report
-        .inputs
-        .iter()
-        .map(|c| (c.name.as_str(), c.value_mm / 1000.0))
-        .collect();
+    let others = taken_m(report);
     for m in &report.prediction.measurements {
         let name = m.name.as_str();
         if !wanted.contains(&name) || report.inputs.iter().any(|c| c.name == name) {
             continue;
         }
         let Some(value) = m.step2_mm else { continue };
-        let sd = report
-            .soft_targets
-            .iter()
-            .find(|t| t.name == name)
-            .map(|t| t.sd_mm)
-            .or_else(|| {
-                estimator
-                    .predict_reading(name, &others)
-                    .ok()
-                    .map(|p| p.sd * 1000.0)
-            });
-        if let Some(sd) = sd {
+        if let Some(sd) = body_sd_mm(estimator, report, &others, name) {
             let _ = readings.insert_estimated(name, value, sd);
         }
     }
     recommend(chart, &readings)
+}
+
+/// The readings of `report` as (name, metres): what a dimension read off
+/// the body is predicted from ([`body_sd_mm`]).
+pub fn taken_m(report: &EstimateReport) -> Vec<(&str, f64)> {
+    report
+        .inputs
+        .iter()
+        .map(|c| (c.name.as_str(), c.value_mm / 1000.0))
+        .collect()
+}
+
+/// The spread (one SD, mm) of a dimension `name` that was not measured but
+/// read off the body of `report` (see the module docs): its soft target's
+/// real-people conditional SD, else what the readings `others` ([`taken_m`])
+/// predict for it; `None` when neither is known (a name the model lacks).
+/// The sizes and the customer's card use the same spread.
+pub fn body_sd_mm(
+    estimator: &Estimator,
+    report: &EstimateReport,
+    others: &[(&str, f64)],
+    name: &str,
+) -> Option<f64> {
+    report
+        .soft_targets
+        .iter()
+        .find(|t| t.name == name)
+        .map(|t| t.sd_mm)
+        .or_else(|| {
+            estimator
+                .predict_reading(name, others)
+                .ok()
+                .map(|p| p.sd * 1000.0)
+        })
 }
 
 /// One line per garment for the result screen: the best size with its

@@ -165,6 +165,9 @@ pub enum ServiceError {
     /// Writing the export failed.
     #[error(transparent)]
     Export(#[from] ExportError),
+    /// Making or writing the customer's card failed.
+    #[error(transparent)]
+    Card(#[from] crate::estimate::card::CardError),
     /// The session has no stored estimate.
     #[error("session {0} has no estimate yet: estimate it first")]
     NoEstimate(SessionId),
@@ -224,6 +227,17 @@ pub trait Services: Send + Sync {
         format: MeshFormat,
         folder: &Path,
     ) -> Result<Vec<PathBuf>, ServiceError>;
+
+    /// Writes the customer's card of the stored estimate of `session`
+    /// (`crate::estimate::card`: lengths in `unit`, the sizes when the services have
+    /// a chart) into `folder` as `session<ID>-card.pdf`, atomically; returns
+    /// the file. The session and its estimate are untouched either way.
+    fn card(
+        &self,
+        session: SessionId,
+        unit: tapeshape_estimator::Unit,
+        folder: &Path,
+    ) -> Result<PathBuf, ServiceError>;
 
     /// The stored estimate of `session` as the interface shows it, if it
     /// has one (after a restart: without estimating again).

@@ -3,7 +3,8 @@
 //! export (OBJ/PLY/GLB + JSON report) are [`crate::estimate`], and every
 //! finished estimate is stored with its session through the session layer
 //! ([`Sessions::store_estimate`]), so exports, and the result screen after a
-//! restart, come from the store rather than from memory.
+//! restart, come from the store rather than from memory; so does the
+//! customer's card ([`stored_card`], `crate::estimate::card`).
 //!
 //! Why a separate module: the front ends know only the [`Services`] trait;
 //! this is the one place that knows which module does the work, so swapping
@@ -349,6 +350,20 @@ impl Services for StationServices {
         Ok(estimate::export_report(&mesh, report, folder, &[format])?)
     }
 
+    fn card(
+        &self,
+        session: SessionId,
+        unit: tapeshape_estimator::Unit,
+        folder: &Path,
+    ) -> Result<PathBuf, ServiceError> {
+        let (stored, _) = self.stored(session)?;
+        let header = self.sessions.store().session(session)?;
+        let pdf = stored_card(&stored, &header, self.chart.as_deref(), unit)?;
+        let path = folder.join(crate::estimate::card::file_name(Some(session.0)));
+        crate::estimate::card::write_card(&path, &pdf)?;
+        Ok(path)
+    }
+
     fn stored_result(&self, session: SessionId) -> Result<Option<EstimateSummary>, ServiceError> {
         match self.stored(session) {
             Ok((stored, _)) => summarise(&stored, self.chart.as_deref()).map(Some),
@@ -369,6 +384,50 @@ struct NoCancel;
 
 impl Cancel for NoCancel {
     fn cancel(&self) {}
+}
+
+/// The customer's card (PDF bytes) of the estimate `stored` with `session`
+/// (its id, its measurement set, when the body was estimated; nothing of
+/// the customer), lengths in `unit`, with the sizes on `chart` if given.
+/// `tapeshape session show --card` and the result screen's `p`.
+pub fn stored_card(
+    stored: &StoredEstimate,
+    session: &Session,
+    chart: Option<&tapeshape_sizes::Chart>,
+    unit: tapeshape_estimator::Unit,
+) -> Result<Vec<u8>, ServiceError> {
+    let estimator = estimator()?;
+    let other_template = || ServiceError::OtherTemplate {
+        session: stored.session_id,
+        model: stored.model_source.clone(),
+    };
+    if stored.template_sha256 != default_template_sha256(estimator) {
+        return Err(other_template());
+    }
+    let mesh = Mesh::new(stored.vertices.clone(), estimator.topology().clone())
+        .map_err(|_| other_template())?;
+    let report: ExportReport =
+        serde_json::from_str(&stored.report_json).map_err(|source| ServiceError::StoredReport {
+            session: stored.session_id,
+            source,
+        })?;
+    let r: tapeshape_estimator::EstimateReport =
+        serde_json::from_value(report.estimator).map_err(|source| ServiceError::StoredReport {
+            session: stored.session_id,
+            source,
+        })?;
+    let sizes = chart.map(|c| estimate::sizes::sizes(estimator, &r, c));
+    let mut card = crate::estimate::card::Card::new(
+        estimator,
+        &r,
+        mesh,
+        session.measurement_set.as_deref(),
+        sizes,
+    );
+    card.session = Some(stored.session_id.0);
+    card.made_at_ms = stored.made_at_ms;
+    card.unit = unit;
+    Ok(crate::estimate::card::card_pdf(&card)?)
 }
 
 /// The interface's view of a stored estimate: the station's report (rows,

@@ -129,12 +129,7 @@ impl ShowLength for Unit {
     }
 
     fn format_mm(self, mm: f64) -> String {
-        match self {
-            Unit::Mm => format!("{mm:.0} mm"),
-            Unit::Cm => format!("{:.1} cm", mm / 10.0),
-            Unit::M => format!("{:.3} m", mm / 1000.0),
-            Unit::In => format!("{:.2} in", mm / 25.4),
-        }
+        crate::text::format_length_mm(self, mm)
     }
 }
 
@@ -258,6 +253,8 @@ pub enum Event {
     History(Vec<SessionSummary>),
     /// Result of [`Effect::Export`].
     Exported(Result<Vec<PathBuf>, String>),
+    /// Result of [`Effect::Card`]: the file written, or why not.
+    CardWritten(Result<PathBuf, String>),
     /// An effect failed: the message says what and what to do.
     Failed(String),
     /// Time passes (the runner's tick).
@@ -336,6 +333,14 @@ pub enum Effect {
         session: SessionId,
         /// Mesh format.
         format: MeshFormat,
+    },
+    /// Write the customer's card of the session's stored estimate into the
+    /// export folder; answer with [`Event::CardWritten`].
+    Card {
+        /// Session.
+        session: SessionId,
+        /// The unit the card prints lengths in (the screen's).
+        unit: Unit,
     },
     /// Load the session's stored estimate; answer with [`Event::ResultLoaded`].
     LoadResult(SessionId),
@@ -567,6 +572,7 @@ pub fn update(app: &mut App, event: Event) -> Vec<Effect> {
         Event::ResultLoaded(r) => result::on_loaded(app, r, &mut fx),
         Event::History(list) => history::on_loaded(app, list),
         Event::Exported(r) => result::on_exported(app, r, &mut fx),
+        Event::CardWritten(r) => result::on_card(app, r),
         Event::Failed(msg) => {
             if app.screen == Screen::NewCustomer {
                 app.form.error = Some(msg.clone());

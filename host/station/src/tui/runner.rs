@@ -414,6 +414,17 @@ impl Ctx {
                     let _ = tx.send(Event::Exported(r));
                 });
             }
+            Effect::Card { session, unit } => {
+                let services = self.services.clone();
+                let tx = self.tx.clone();
+                let folder = self.export_dir.clone();
+                tokio::task::spawn_blocking(move || {
+                    let r = services
+                        .card(session, unit, &folder)
+                        .map_err(|e| e.to_string());
+                    let _ = tx.send(Event::CardWritten(r));
+                });
+            }
             Effect::LoadResult(session) => {
                 let services = self.services.clone();
                 let tx = self.tx.clone();

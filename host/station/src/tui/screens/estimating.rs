@@ -92,6 +92,7 @@ pub fn on_estimate(app: &mut App, ev: EstimateEvent, fx: &mut Vec<Effect>) {
             let session = summary.session;
             app.result.summary = Some(*summary);
             app.result.exported = None;
+            app.result.card = None;
             app.result.stored = None;
             app.notice = None;
             if app.screen == Screen::Estimating {

@@ -1,7 +1,8 @@
 //! The result screen: front and side braille silhouettes, target / body /
 //! error per reading, plausibility, and the export (`x`, in the format `f`
-//! chooses, plus the report). An estimate stored before a restart is shown
-//! here again without estimating again.
+//! chooses, plus the report) and the customer's card (`p`, a PDF in the
+//! same folder: `crate::estimate::card`). An estimate stored before a restart is
+//! shown here again without estimating again.
 
 use std::path::PathBuf;
 
@@ -38,6 +39,8 @@ pub struct ResultScreen {
     pub exported: Option<Vec<PathBuf>>,
     /// Format of the next export.
     pub format: MeshFormat,
+    /// The customer's card last written for the estimate shown.
+    pub card: Option<PathBuf>,
     /// The estimate shown was loaded from the store (not just made): when
     /// it was made, and whether it is of the session's current readings.
     pub stored: Option<EstimateInfo>,
@@ -49,6 +52,7 @@ impl Default for ResultScreen {
             summary: None,
             exported: None,
             format: FORMAT_CYCLE[0],
+            card: None,
             stored: None,
         }
     }
@@ -59,6 +63,7 @@ impl Default for ResultScreen {
 enum Action {
     Export,
     Format,
+    Card,
     Back,
     NextCustomer,
     Units,
@@ -79,6 +84,14 @@ fn bindings() -> Vec<Binding<Action>> {
             "format",
             "the export's format: GLB, OBJ or PLY",
             Action::Format,
+        ),
+        Binding::new(
+            &[ch('p')],
+            "p",
+            "card",
+            "the customer's card: a PDF with the body, the readings and the sizes, \
+             written beside the exports (the session stays as it is)",
+            Action::Card,
         ),
         Binding::new(
             &[ch('b'), code(KeyCode::Esc)],
@@ -126,6 +139,15 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                 app.note(Level::Info, "Exporting...");
             }
         }
+        Action::Card => {
+            if let Some(s) = &app.session {
+                fx.push(Effect::Card {
+                    session: s.id,
+                    unit: app.unit,
+                });
+                app.note(Level::Info, "Writing the card...");
+            }
+        }
         Action::Format => {
             let i = FORMAT_CYCLE
                 .iter()
@@ -165,6 +187,7 @@ pub fn on_loaded(app: &mut App, r: Result<EstimateSummary, String>, fx: &mut Vec
             let session = summary.session;
             app.result.summary = Some(summary);
             app.result.exported = None;
+            app.result.card = None;
             app.screen = Screen::Result;
             let when = app
                 .result
@@ -218,6 +241,22 @@ pub fn on_exported(app: &mut App, r: Result<Vec<PathBuf>, String>, fx: &mut Vec<
             }
         }
         Err(e) => app.note(Level::Error, format!("Export failed: {e}")),
+    }
+}
+
+/// A card was written ([`Effect::Card`]), or not: where it went, or why
+/// not. Nothing else changes (a failed card loses nothing: the session and
+/// its estimate are in the store).
+pub fn on_card(app: &mut App, r: Result<PathBuf, String>) {
+    match r {
+        Ok(path) => {
+            app.note(Level::Info, format!("Card written to {}", path.display()));
+            app.result.card = Some(path);
+        }
+        Err(e) => app.note(
+            Level::Error,
+            format!("The card was not written: {e}; the session and its estimate are kept"),
+        ),
     }
 }
 
@@ -424,6 +463,12 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             Span::styled("f", st(m, Role::Key)),
             Span::raw(" other format"),
         ])),
+    }
+    if let Some(name) = app.result.card.as_ref().and_then(|c| c.file_name()) {
+        lines.push(Line::styled(
+            format!("card {}", name.to_string_lossy()),
+            st(m, Role::Ok),
+        ));
     }
     frame.render_widget(Paragraph::new(lines).wrap(Wrap { trim: true }), info);
 }

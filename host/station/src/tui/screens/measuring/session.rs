@@ -624,6 +624,7 @@ pub(super) fn start_estimate(app: &mut App, fx: &mut Vec<Effect>, then_export: b
     if let Some(summary) = app.live.ready(&request) {
         app.result.summary = Some(summary.clone());
         app.result.exported = None;
+        app.result.card = None;
         app.result.stored = None;
         app.estimate = EstimateState::default();
         app.notice = None;
