@@ -56,6 +56,54 @@ fn every_quick_measurement_has_its_pictogram_on_the_measuring_screen() {
     }
 }
 
+#[test]
+fn every_terminal_size_draws_and_keeps_the_instruction_and_what_to_do() {
+    let set = MeasurementSet::builtin("quick").unwrap();
+    for (i, def) in set.definitions.iter().enumerate() {
+        let a = measuring_at(i);
+        for (w, h) in [
+            (1, 1),
+            (20, 8),
+            (40, 12),
+            (60, 20),
+            (80, 24),
+            (120, 40),
+            (300, 120),
+        ] {
+            let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
+            t.draw(|f| draw(&a, f)).unwrap();
+            if (w, h) < (80, 24) {
+                continue;
+            }
+            // The screen as one text without its borders and line breaks.
+            let text: String = t
+                .backend()
+                .buffer()
+                .content()
+                .iter()
+                .map(|c| c.symbol())
+                .collect::<String>();
+            let words = |s: &str| s.split_whitespace().map(str::to_owned).collect::<Vec<_>>();
+            // Its first and last words (a clipped instruction loses the
+            // last), and the prompt's "button" (the footer has "capture").
+            let all = words(&def.description);
+            let ends = all.iter().take(3).chain(all.iter().rev().take(2));
+            for word in ends {
+                assert!(
+                    text.contains(word.as_str()),
+                    "{} at {w}x{h}: {word:?} of the instruction is missing",
+                    def.name
+                );
+            }
+            assert!(
+                text.contains("button"),
+                "{} at {w}x{h}: what to do is missing",
+                def.name
+            );
+        }
+    }
+}
+
 fn quick() -> (MeasurementSet, SetPictograms) {
     let set = MeasurementSet::builtin("quick").unwrap();
     let pics = SetPictograms::new(&set, BodyModel::shared().unwrap()).unwrap();

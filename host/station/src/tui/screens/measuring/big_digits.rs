@@ -52,10 +52,10 @@ pub fn render(text: &str, scale: usize) -> Option<[String; 5]> {
     Some(rows)
 }
 
-/// Columns [`render`] takes for `text` at `scale` (0 for an unknown
-/// character).
-pub fn width(text: &str, scale: usize) -> usize {
-    render(text, scale).map_or(0, |r| r[0].chars().count())
+/// Columns [`render`] takes for `text` at `scale`; `None` when it cannot
+/// draw `text`.
+pub fn width(text: &str, scale: usize) -> Option<usize> {
+    render(text, scale).map(|r| r[0].chars().count())
 }
 
 #[cfg(test)]
@@ -73,7 +73,7 @@ mod tests {
         }
         let r = render("183.7", 2).unwrap();
         // four digits of 6, a point of 2, four gaps.
-        assert_eq!(width("183.7", 2), 4 * 6 + 2 + 4);
+        assert_eq!(width("183.7", 2), Some(4 * 6 + 2 + 4));
         assert!(r.iter().all(|row| row.chars().count() == 30));
         // The point sits on the bottom row only.
         let point_col = 3 * 7;
@@ -86,7 +86,7 @@ mod tests {
     #[test]
     fn other_characters_are_refused() {
         assert_eq!(render("98.2 cm", 1), None);
-        assert_eq!(width("x", 1), 0);
+        assert_eq!(width("x", 1), None);
         assert_eq!(render("--", 1).unwrap()[2], "███ ███");
     }
 }

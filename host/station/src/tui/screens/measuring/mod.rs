@@ -581,16 +581,20 @@ fn draw_guided(
     for (cols, big) in tries {
         let Some(cols) = cols else { continue };
         let gap = u16::from(cols > 0);
-        let Some(text_w) = area.width.checked_sub(cols + gap).filter(|w| *w > 0) else {
+        let Some(text_w) = area
+            .width
+            .checked_sub(cols.saturating_add(gap))
+            .filter(|w| *w > 0)
+        else {
             continue;
         };
         let unit_w = unit.chars().count() + 1;
         let scale = if !big {
             None
         } else {
-            [2, 1]
-                .into_iter()
-                .find(|&k| big_digits::width(number, k) + unit_w <= usize::from(text_w))
+            [2, 1].into_iter().find(|&k| {
+                big_digits::width(number, k).is_some_and(|w| w + unit_w <= usize::from(text_w))
+            })
         };
         if big && scale.is_none() {
             continue;

@@ -241,7 +241,10 @@ pub const MIN_ROWS: u16 = 6;
 pub fn width_for(set: &SetPictograms, pic: &Pictogram, rows: u16, both: bool) -> u16 {
     let scale = Scale::new(set, pic, rows);
     if both {
-        scale.cols(View::Front) + 1 + scale.cols(View::Side)
+        scale
+            .cols(View::Front)
+            .saturating_add(1)
+            .saturating_add(scale.cols(View::Side))
     } else {
         scale.cols(pic.view)
     }
@@ -288,7 +291,7 @@ impl Scale {
         let z = [zf[0].min(zs[0]), zf[1].max(zs[1])];
         // A margin of 2 % so the head and the soles stay inside.
         let span = (z[1] - z[0]).max(1e-3) * 1.02;
-        let per_dot = span / f64::from(rows.max(1) * 4);
+        let per_dot = span / (f64::from(rows.max(1)) * 4.0);
         let mid = (z[0] + z[1]) / 2.0;
         Self {
             z: [mid - span / 2.0, mid + span / 2.0],
@@ -337,19 +340,20 @@ pub fn render(
     }
     let scale = Scale::new(set, pic, area.height);
     let (front, side) = (scale.cols(View::Front), scale.cols(View::Side));
-    let views: Vec<(View, u16)> = if front + 1 + side <= area.width {
+    let views: Vec<(View, u16)> = if front.saturating_add(1).saturating_add(side) <= area.width {
         vec![(View::Front, front), (View::Side, side)]
     } else if scale.cols(pic.view) <= area.width {
         vec![(pic.view, scale.cols(pic.view))]
     } else {
         return Vec::new();
     };
+    // At most `area.width`: checked above.
     let used: u16 = views.iter().map(|(_, w)| w).sum::<u16>() + (views.len() as u16 - 1);
     let mut x = area.x + (area.width - used) / 2;
     let mut placed = Vec::new();
     for (view, cols) in views {
         let cell = Rect::new(x, area.y, cols, area.height);
-        x += cols + 1;
+        x = x.saturating_add(cols).saturating_add(1);
         let p = Placed {
             view,
             area: cell,
