@@ -68,6 +68,38 @@ impl Support {
             .sum()
     }
 
+    /// The segments as they are measured, end points in metres (station
+    /// frame), for drawing a measurement where the engine takes it.
+    ///
+    /// Without an axis these are the support's segments themselves. With
+    /// an axis `n`, a segment `q0 -> q1` is measured as its projection on
+    /// `n`, so it is returned as the line `q1 - n (n . (q1 - q0)) -> q1`
+    /// along `n`, ending at `q1`: a height is the vertical line from the
+    /// floor's level up to the landmark, a caliper depth the line along its
+    /// axis to the far extreme point. The lengths of the returned segments
+    /// add up to [`Support::length`] (to rounding; `n` is a unit vector).
+    pub fn measured_segments(&self, p: &[Vec3]) -> Vec<[Vec3; 2]> {
+        self.segments
+            .iter()
+            .map(|s| {
+                let q0 = self.points[s[0] as usize].position(p);
+                let q1 = self.points[s[1] as usize].position(p);
+                match self.axis {
+                    Some(n) => {
+                        let along = dot(n, sub(q1, q0));
+                        let start = [
+                            q1[0] - along * n[0],
+                            q1[1] - along * n[1],
+                            q1[2] - along * n[2],
+                        ];
+                        [start, q1]
+                    }
+                    None => [q0, q1],
+                }
+            })
+            .collect()
+    }
+
     /// Adds `scale * d length / d p` to `grad` (one entry per vertex, same
     /// length as `p`), with the support held fixed: the points' vertex pairs
     /// and weights `t` do not move, as in the paper's energies. For a

@@ -141,6 +141,31 @@ fn check_support_matches_value(c: &CompiledSet, p: &[Vec3]) {
         for sp in &m.support.points {
             assert!((0.0..=1.0).contains(&sp.t));
         }
+        // What a picture of the measurement draws adds up to the value,
+        // and a projected (axis) measurement is drawn along its axis.
+        let drawn = m.support.measured_segments(p);
+        assert_eq!(drawn.len(), m.support.segments.len());
+        let total: f64 = drawn
+            .iter()
+            .map(|[a, b]| tapeshape_mesh::vec3::norm(tapeshape_mesh::vec3::sub(*b, *a)))
+            .sum();
+        assert!(
+            (total - m.value).abs() <= 1e-12 * m.value.max(1.0),
+            "{}: drawn {total} vs value {}",
+            c.set().definitions[i].name,
+            m.value
+        );
+        if let Some(n) = m.support.axis {
+            for [a, b] in &drawn {
+                let d = tapeshape_mesh::vec3::sub(*b, *a);
+                let off = tapeshape_mesh::vec3::norm(tapeshape_mesh::vec3::cross(d, n));
+                assert!(
+                    off <= 1e-12,
+                    "{}: drawn segment leaves the axis by {off}",
+                    c.set().definitions[i].name
+                );
+            }
+        }
     }
 }
 

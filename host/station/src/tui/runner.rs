@@ -118,6 +118,14 @@ async fn run_in(
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_nanos() as u64)
         .unwrap_or(1);
+    // The measuring screen's pictograms of the default set are made while
+    // the operator fills in the form (loading the body template takes about
+    // half a second once), not in the first measuring frame (which makes
+    // them itself if no thread could be started).
+    let warm = default_set.clone();
+    let _ = std::thread::Builder::new()
+        .name("pictograms".into())
+        .spawn(move || drop(crate::tui::screens::measuring::pictogram::for_set(&warm)));
     let mut app = App::new(AppConfig {
         port: port_label,
         demo: demo.is_some(),

@@ -16,7 +16,9 @@ use crate::tui::app::{action, toggled, App, Effect, Global, Level, Screen, ShowL
 use crate::tui::keys::{ch, code, hints as hints_of, Binding, Hint};
 use crate::tui::theme::{hint, hint_line, st, Role};
 
+pub mod big_digits;
 pub mod live;
+pub mod pictogram;
 mod session;
 
 use session::{advance, start_estimate, stored_mark};
@@ -423,19 +425,13 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
 
     let mut lines: Vec<Line> = Vec::new();
     let title;
-    match s.current.and_then(|c| s.items.get(c)) {
+    let now = s.current.and_then(|c| s.items.get(c));
+    match now {
         Some(it) => {
             title = format!(" Now: {} ", it.info.label);
-            lines.push(Line::styled(it.info.description.clone(), st(m, Role::Big)));
-            lines.push(Line::raw(""));
-            let live = match app.device.live {
-                Some(l) if app.device.connected() => app.unit.format(l.value_tenth_mm),
-                _ => "--".to_string(),
-            };
-            lines.push(Line::from(vec![
-                Span::styled("Tape    ", st(m, Role::Dim)),
-                Span::styled(live, st(m, Role::Big)),
-            ]));
+            // The instruction and the tape value come first: drawn by
+            // `draw_guided` with the pictogram, or put before these lines
+            // when the screen has no room for it.
             // Careful mode: which reading of how many is expected.
             if let Some(status) = it.careful_status(app.unit) {
                 let role = if status.starts_with("third") {
@@ -517,10 +513,174 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     if skipped > 0 {
         lines.push(Line::styled(format!("{skipped} skipped"), st(m, Role::Dim)));
     }
-    frame.render_widget(
-        Paragraph::new(lines)
-            .wrap(Wrap { trim: true })
-            .block(Block::bordered().title(title)),
-        detail,
-    );
+    let block = Block::bordered().title(title);
+    let inner = block.inner(detail);
+    frame.render_widget(block, detail);
+    match now {
+        Some(it) if draw_guided(app, &s.set, it, &lines, frame, inner) => {}
+        _ => {
+            if let Some(it) = now {
+                let head = [
+                    Line::styled(it.info.description.clone(), st(m, Role::Big)),
+                    Line::raw(""),
+                    Line::from(vec![
+                        Span::styled("Tape    ", st(m, Role::Dim)),
+                        Span::styled(tape_value(app), st(m, Role::Big)),
+                    ]),
+                ];
+                lines.splice(0..0, head);
+            }
+            frame.render_widget(Paragraph::new(lines).wrap(Wrap { trim: true }), inner);
+        }
+    }
+}
+
+/// The tape's live value with its unit ("83.7 cm"), or "--" without one.
+fn tape_value(app: &App) -> String {
+    match app.device.live {
+        Some(l) if app.device.connected() => app.unit.format(l.value_tenth_mm),
+        _ => "--".to_string(),
+    }
+}
+
+/// The current measurement's instruction across the top of `area`; under
+/// it the body pictogram with the measurement highlighted and, beside it,
+/// the tape value in big digits over `lines` (the stored value, what to do
+/// next). Parts are left out as the room shrinks: the second view of the
+/// pictogram, then the pictogram, then the big digits for a plain line;
+/// `false` (nothing drawn) when even that leaves `lines` no room, and the
+/// caller draws everything as one paragraph.
+fn draw_guided(
+    app: &App,
+    set: &str,
+    it: &Item,
+    lines: &[Line],
+    frame: &mut Frame,
+    area: Rect,
+) -> bool {
+    let m = app.mono;
+    let wrap = Wrap { trim: true };
+    let desc =
+        Paragraph::new(Line::styled(it.info.description.clone(), st(m, Role::Big))).wrap(wrap);
+    let desc_rows = u16::try_from(desc.line_count(area.width)).unwrap_or(u16::MAX);
+    let rest_rows = area.height.saturating_sub(desc_rows.saturating_add(1));
+    let tape = tape_value(app);
+    let (number, unit) = tape.rsplit_once(' ').unwrap_or((tape.as_str(), ""));
+    let text = Paragraph::new(lines.to_vec()).wrap(wrap);
+    let pics = pictogram::for_set(set);
+    let pic = match pics.as_ref() {
+        Ok(p) => p
+            .measurements
+            .get(&it.info.name)
+            .and_then(|r| r.as_ref().ok())
+            .map(|pic| (p, pic)),
+        Err(_) => None,
+    };
+    let pic_cols = |both| match pic {
+        Some((set, pic)) if rest_rows >= pictogram::MIN_ROWS => {
+            Some(pictogram::width_for(set, pic, rest_rows, both))
+        }
+        _ => None,
+    };
+    // (pictogram columns, big digits) in the order they are tried.
+    let tries = [
+        (pic_cols(true), true),
+        (pic_cols(false), true),
+        (Some(0), true),
+        (pic_cols(false), false),
+        (Some(0), false),
+    ];
+    for (cols, big) in tries {
+        let Some(cols) = cols else { continue };
+        let gap = u16::from(cols > 0);
+        let Some(text_w) = area
+            .width
+            .checked_sub(cols.saturating_add(gap))
+            .filter(|w| *w > 0)
+        else {
+            continue;
+        };
+        let unit_w = unit.chars().count() + 1;
+        let scale = if !big {
+            None
+        } else {
+            [2, 1].into_iter().find(|&k| {
+                big_digits::width(number, k).is_some_and(|w| w + unit_w <= usize::from(text_w))
+            })
+        };
+        if big && scale.is_none() {
+            continue;
+        }
+        let head_rows = if scale.is_some() {
+            big_digits::ROWS + 1
+        } else {
+            1
+        };
+        let text_rows = text.line_count(text_w);
+        if usize::from(head_rows) + text_rows > usize::from(rest_rows) {
+            continue;
+        }
+        frame.render_widget(
+            desc,
+            Rect {
+                height: desc_rows,
+                ..area
+            },
+        );
+        let rest = Rect {
+            y: area.y + desc_rows + 1,
+            height: rest_rows,
+            ..area
+        };
+        if cols > 0 {
+            if let Some((set, pic)) = pic {
+                let picture = Rect {
+                    width: cols,
+                    ..rest
+                };
+                pictogram::render(set, pic, m, picture, frame.buffer_mut());
+            }
+        }
+        let column = Rect {
+            x: rest.x + cols + gap,
+            width: text_w,
+            ..rest
+        };
+        let mut head: Vec<Line> = Vec::new();
+        match scale.and_then(|k| big_digits::render(number, k)) {
+            Some(rows) => {
+                let last = rows.len() - 1;
+                for (i, row) in rows.into_iter().enumerate() {
+                    let mut spans = vec![Span::styled(row, st(m, Role::Big))];
+                    if i == last && !unit.is_empty() {
+                        spans.push(Span::styled(format!(" {unit}"), st(m, Role::Big)));
+                    }
+                    head.push(Line::from(spans));
+                }
+                head.push(Line::raw(""));
+            }
+            None => head.push(Line::from(vec![
+                Span::styled("Tape    ", st(m, Role::Dim)),
+                Span::styled(tape.clone(), st(m, Role::Big)),
+            ])),
+        }
+        let head_h = u16::try_from(head.len()).unwrap_or(u16::MAX);
+        frame.render_widget(
+            Paragraph::new(head),
+            Rect {
+                height: head_h,
+                ..column
+            },
+        );
+        frame.render_widget(
+            text,
+            Rect {
+                y: column.y + head_h,
+                height: column.height - head_h,
+                ..column
+            },
+        );
+        return true;
+    }
+    false
 }
