@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Drives the real `tapeshape demo` in a real terminal (tmux, 80x24) the way
 # an operator would: start the demo, take over from the simulated operator,
-# retake a reading, finish, estimate, export, quit, start again and find the
+# retake a reading, finish, estimate (the result shows the sizes on the
+# example chart), export, write the customer's card (checked with pdftotext),
+# quit, start again and find the
 # session in the history and show its stored estimate; then kill the program
 # mid-session (SIGKILL), check that the next start offers to resume it with its
 # readings, finish and estimate it, kill the program again and check that the
@@ -13,13 +15,15 @@
 # Usage: scripts/tmux-demo.sh [--release]
 # Env:   OUT (captures folder, default target/tmux-demo), TAPESHAPE_BIN
 #        (a built binary; default: cargo build -p tapeshape), STEP_TIMEOUT
-#        (seconds per step, default 60). Needs tmux (apt-get install -y tmux).
+#        (seconds per step, default 60). Needs tmux and poppler-utils
+#        (apt-get install -y tmux poppler-utils).
 set -euo pipefail
 
 cd "$(dirname "$0")/.."
 profile=debug
 if [[ "${1:-}" == "--release" ]]; then profile=release; fi
 command -v tmux >/dev/null || { echo "tmux is not installed (apt-get install -y tmux)" >&2; exit 2; }
+command -v pdftotext >/dev/null || { echo "pdftotext is not installed (apt-get install -y poppler-utils)" >&2; exit 2; }
 if [[ -z "${TAPESHAPE_BIN:-}" ]]; then
     if [[ $profile == release ]]; then cargo build --release -p tapeshape; else cargo build -p tapeshape; fi
     TAPESHAPE_BIN="$PWD/target/$profile/tapeshape"
@@ -98,9 +102,11 @@ done
 wait_for "Every measurement is taken"
 save 04-all-taken
 
-echo "5. estimate"
+echo "5. estimate: the result shows a size per garment (the demo's example chart)"
 keys e
 wait_for "Estimate ("
+wait_for " Sizes "
+wait_for "jacket: "
 save 05-result
 
 echo "6. export"
@@ -109,6 +115,18 @@ wait_for "exported"
 save 06-exported
 ls "$DATA/exports" | grep -q '\.glb$' || fail "no .glb in $DATA/exports"
 ls "$DATA/exports" | grep -q 'report\.json$' || fail "no report in $DATA/exports"
+
+echo "6b. the customer's card"
+keys p
+wait_for "Card written to"
+save 06b-card
+card=$(ls "$DATA"/exports/*card.pdf 2>/dev/null | head -n 1)
+[[ -n "$card" ]] || fail "no card PDF in $DATA/exports"
+pdftotext -layout "$card" - >"$OUT/06b-card.txt"
+for word in "Session: 1" "Measurements taken" "jacket: "; do
+    grep -qF "$word" "$OUT/06b-card.txt" || fail "the card ($card) has no '$word' (its text: $OUT/06b-card.txt)"
+done
+echo "card $card: $(wc -l <"$OUT/06b-card.txt") lines of text"
 
 echo "7. quit"
 keys q
@@ -164,8 +182,13 @@ offered=$(screen | grep -oE '[0-9]+ readings are stored' | head -1 | cut -d' ' -
 keys Space
 wait_for "You have the keyboard"
 keys y
-wait_for "opened with its $offered stored readings"
+# The list shows the stored readings; the notice says so unless the check of
+# the resumed readings flags one at once (with three readings the demo
+# customer's chest is 3 SD from what the other two predict), whose flag
+# then takes the notice line.
 wait_for "$offered of 9 taken"
+screen | grep -qE "opened with its $offered stored readings|SD (above|below) what the other readings predict" \
+    || fail "the resumed session says neither that it opened with its $offered readings nor why not"
 save 11-resumed
 
 echo "12. finish the resumed session and estimate it, then kill the program (SIGKILL)"

@@ -78,9 +78,54 @@ pub struct Args {
     #[arg(long, value_name = "MM")]
     pub reading_tolerance: Option<f64>,
 
+    /// The store's size chart (TOML, docs/size-charts.md) for the result
+    /// screen's sizes [default: DATA_DIR/size-chart.toml when it exists,
+    /// else the example chart (examples/size-charts/) of the simulated
+    /// customer's sex].
+    #[arg(long, value_name = "FILE")]
+    pub chart: Option<PathBuf>,
+
     /// Syncing the demo's sessions to a chain's hub (none by default).
     #[command(flatten)]
     pub hub: crate::cli::HubArgs,
+}
+
+/// The example charts (`examples/size-charts/`, made by
+/// `host/sizes/examples/make_example_charts.rs` from ANSUR II percentiles;
+/// no brand's chart), embedded so that the demo shows sizes with nothing
+/// beside the program.
+const EXAMPLE_CHARTS: [(&str, &str); 2] = [
+    (
+        "examples/size-charts/menswear.toml",
+        include_str!("../../../../examples/size-charts/menswear.toml"),
+    ),
+    (
+        "examples/size-charts/womenswear.toml",
+        include_str!("../../../../examples/size-charts/womenswear.toml"),
+    ),
+];
+
+/// The demo's size chart: `--chart FILE` or `DATA_DIR/size-chart.toml` as
+/// the station takes it, else the embedded example chart for `sex`
+/// (menswear without one).
+fn demo_chart(
+    chart: Option<&std::path::Path>,
+    data_dir: &std::path::Path,
+    sex: Option<tapeshape_population::ansur::Sex>,
+) -> anyhow::Result<tapeshape_sizes::Chart> {
+    if let Some(c) = crate::cli::station::station_chart(chart, data_dir)? {
+        return Ok(c);
+    }
+    let (origin, text) = match sex {
+        Some(tapeshape_population::ansur::Sex::Female) => EXAMPLE_CHARTS[1],
+        _ => EXAMPLE_CHARTS[0],
+    };
+    let estimator = tapeshape_estimator::Estimator::default_model()?;
+    Ok(tapeshape_sizes::Chart::from_toml_str(
+        text,
+        origin,
+        &crate::estimate::sizes::known_dimensions(estimator),
+    )?)
 }
 
 /// Runs the demo. The session goes to the data directory if one is given
@@ -308,10 +353,11 @@ fn run_interactive(
         Some(d) => d.clone(),
         None => data_dir.join("exports"),
     };
-    let services = std::sync::Arc::new(StationServices::new(
-        sessions.clone(),
-        reading_tolerance(args.reading_tolerance)?,
-    ));
+    let chart = demo_chart(args.chart.as_deref(), &data_dir, customer.sex)?;
+    let services = std::sync::Arc::new(
+        StationServices::new(sessions.clone(), reading_tolerance(args.reading_tolerance)?)
+            .with_chart(chart),
+    );
     let options = crate::tui::runner::RunOptions {
         sessions: sessions.clone(),
         port: harness.host_path().to_path_buf(),

@@ -131,7 +131,7 @@ pub struct Args {
 /// `DATA_DIR/size-chart.toml` if there is one. A chart that cannot be
 /// read stops the start with its error (better than a fitting room
 /// without sizes it thinks it has).
-fn station_chart(
+pub(crate) fn station_chart(
     chart: Option<&std::path::Path>,
     data_dir: &std::path::Path,
 ) -> anyhow::Result<Option<tapeshape_sizes::Chart>> {
