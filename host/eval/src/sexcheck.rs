@@ -78,9 +78,13 @@ give more train-split subjects or fewer columns"
 combination of others): drop the redundant column"
     )]
     Singular,
-    /// The axis was asked for no columns, or for stature scaling without stature.
+    /// The axis has no columns, stature scaled by itself, or a column the
+    /// run did not measure.
     #[error("the axis has no usable columns: {0}")]
     Columns(String),
+    /// A person of the run is not in ANSUR II, or lacks a column.
+    #[error("ANSUR II subject {0}: {1}")]
+    Subject(u32, String),
     /// The measurement set could not be loaded.
     #[error(transparent)]
     Measure(#[from] tapeshape_measure::MeasureError),
@@ -432,12 +436,12 @@ pub fn score_run(
     for p in &run.people {
         let s = ansur
             .subject(p.id)
-            .ok_or_else(|| SexCheckError::Columns(format!("subject {} not in ANSUR II", p.id)))?;
+            .ok_or_else(|| SexCheckError::Subject(p.id, "not in the survey".into()))?;
         let real_features: Vec<Vec<f64>> = axes
             .iter()
             .map(|a| {
                 a.features(|c| s.dim(c)).ok_or_else(|| {
-                    SexCheckError::Columns(format!("subject {} lacks a column", p.id))
+                    SexCheckError::Subject(p.id, format!("lacks a column of the {} axis", a.name))
                 })
             })
             .collect::<Result<_, _>>()?;
