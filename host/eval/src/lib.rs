@@ -10,5 +10,6 @@ pub mod figures;
 pub mod method;
 pub mod methods;
 pub mod report;
+pub mod sexcheck;
 
 pub use method::{Method, MethodError, MethodOutput, TrainingData};
