@@ -111,7 +111,7 @@ save 05-result
 
 echo "6. export"
 keys x
-wait_for "exported"
+wait_for "Exported "
 save 06-exported
 ls "$DATA/exports" | grep -q '\.glb$' || fail "no .glb in $DATA/exports"
 ls "$DATA/exports" | grep -q 'report\.json$' || fail "no report in $DATA/exports"
@@ -223,7 +223,7 @@ wait_for "Estimate stored"
 wait_for "Estimate ("
 save 13-stored-after-kill
 keys x
-wait_for "exported"
+wait_for "Exported "
 save 14-exported-again
 keys q
 keys q

@@ -315,6 +315,51 @@ fn result_screen_with_sizes() {
     insta::assert_snapshot!(render(&a));
 }
 
+/// Nine readings and three garments on an 80x24 terminal: the table keeps
+/// every row (the sizes and the notes take what is left), as the demo's
+/// quick set shows it.
+#[test]
+fn result_screen_with_sizes_keeps_every_row() {
+    let mut a = result_app();
+    // Names outside the session's set, so each row shows its name.
+    let names = [
+        "row_one",
+        "row_two",
+        "row_three",
+        "row_four",
+        "row_five",
+        "row_six",
+        "row_seven",
+        "row_eight",
+        "row_nine",
+    ];
+    if let Some(s) = a.result.summary.as_mut() {
+        s.rows = names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| ResultRow {
+                name: (*n).into(),
+                target_mm: 500.0 + 10.0 * i as f64,
+                achieved_mm: 500.0 + 10.0 * i as f64,
+            })
+            .collect();
+        s.sizes = vec![
+            "shirt: L (100 %)".into(),
+            "jacket: 56 (94 %)".into(),
+            "trousers: W84/L76 (63 %) or W88/L76".into(),
+        ];
+    }
+    let screen = render(&a);
+    for n in names {
+        assert!(
+            screen.lines().any(|l| l.contains(n)),
+            "row {n} is not on the 80x24 result screen:\n{screen}"
+        );
+    }
+    assert!(screen.contains("trousers: W84/L76"), "{screen}");
+    assert!(screen.contains("plausibility"), "{screen}");
+}
+
 #[test]
 fn result_screen_exported() {
     let mut a = result_app();

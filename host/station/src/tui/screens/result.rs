@@ -338,10 +338,19 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     } else {
         u16::try_from(r.sizes.len() + 2).unwrap_or(u16::MAX)
     };
+    // The table keeps every row when it can (an operator checks each
+    // measurement against its target): it takes its rows and borders
+    // first, the sizes their lines, and the plausibility and warnings what
+    // is left, at least three lines; only on a screen too small for that
+    // does the table give up rows (down to four lines).
+    let table_height = u16::try_from(r.rows.len() + 3)
+        .unwrap_or(u16::MAX)
+        .min(right.height.saturating_sub(sizes_height.saturating_add(3)))
+        .max(4);
     let [table_area, sizes_area, info] = Layout::vertical([
-        Constraint::Min(4),
+        Constraint::Length(table_height),
         Constraint::Length(sizes_height),
-        Constraint::Length(7),
+        Constraint::Min(0),
     ])
     .areas(right);
     if !r.sizes.is_empty() {
