@@ -179,15 +179,7 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
             let before = s.items[i].clone();
             let mut reverts = Vec::new();
             if before.state == ItemState::Skipped {
-                reverts.push(StoreRevert::Mark(
-                    before.info.name.clone(),
-                    Some(Mark::Skipped),
-                ));
-                fx.push(Effect::SetMark {
-                    session: s.id,
-                    name: before.info.name.clone(),
-                    mark: None,
-                });
+                session::clear_mark(s.id, &before, Mark::Skipped, &mut reverts, fx);
             }
             s.undo.push(UndoEntry {
                 what: format!("retake of {}", before.info.label),

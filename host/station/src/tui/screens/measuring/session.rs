@@ -234,6 +234,24 @@ pub(super) fn stored_mark(item: &Item) -> Option<Mark> {
     }
 }
 
+/// Clears `item`'s stored `mark` (a new reading or a retake replaces a skip
+/// or a kept flag): asks the store to drop it and puts what sets it back on
+/// `reverts`, for `u`.
+pub(super) fn clear_mark(
+    session: SessionId,
+    item: &Item,
+    mark: Mark,
+    reverts: &mut Vec<StoreRevert>,
+    fx: &mut Vec<Effect>,
+) {
+    reverts.push(StoreRevert::Mark(item.info.name.clone(), Some(mark)));
+    fx.push(Effect::SetMark {
+        session,
+        name: item.info.name.clone(),
+        mark: None,
+    });
+}
+
 /// The unit the tape showed, as the check takes it.
 fn tape_unit(shown: UnitShown) -> Unit {
     match shown {
@@ -403,15 +421,7 @@ pub fn on_reading_stored(
             None => {
                 let mut reverts = reverts;
                 if before.state == ItemState::Skipped {
-                    reverts.push(StoreRevert::Mark(
-                        before.info.name.clone(),
-                        Some(Mark::Skipped),
-                    ));
-                    fx.push(Effect::SetMark {
-                        session: s.id,
-                        name: before.info.name.clone(),
-                        mark: None,
-                    });
+                    clear_mark(s.id, &before, Mark::Skipped, &mut reverts, fx);
                     s.items[i].state = ItemState::Todo;
                 }
                 s.undo.push(UndoEntry {
@@ -441,12 +451,7 @@ pub fn on_reading_stored(
     }
     if let Some(mark) = stored_mark(&before) {
         // A new reading replaces a skip or a kept flag.
-        reverts.push(StoreRevert::Mark(before.info.name.clone(), Some(mark)));
-        fx.push(Effect::SetMark {
-            session: s.id,
-            name: before.info.name.clone(),
-            mark: None,
-        });
+        clear_mark(s.id, &before, mark, &mut reverts, fx);
     }
     s.undo.push(UndoEntry {
         what: format!("reading of {}", before.info.label),
