@@ -418,8 +418,6 @@ fn a_stored_session_card_has_its_id_and_date_and_nothing_of_the_customer() {
     if !poppler_or_skip("a_stored_session_card_has_its_id_and_date_and_nothing_of_the_customer") {
         return;
     }
-    use tapeshape::services::station::StationServices;
-    use tapeshape::services::{EstimateEvent, EstimateRequest, Services as _};
     use tapeshape::session::Sessions;
 
     let data = tempfile::tempdir().unwrap();
@@ -438,32 +436,9 @@ fn a_stored_session_card_has_its_id_and_date_and_nothing_of_the_customer() {
         for (name, v) in readings {
             sessions.capture_keyboard(view.id, name, v).unwrap();
         }
-        let services = StationServices::new(sessions.clone(), None);
-        let (tx, rx) = std::sync::mpsc::channel();
-        let _cancel = services.start_estimate(
-            EstimateRequest {
-                session: view.id,
-                readings: readings
-                    .iter()
-                    .map(|(n, v)| (n.to_string(), f64::from(*v) / 10.0))
-                    .collect(),
-                sex: None,
-                kept: Vec::new(),
-            },
-            Box::new(move |ev| {
-                let _ = tx.send(ev);
-            }),
-        );
-        loop {
-            match rx
-                .recv_timeout(std::time::Duration::from_secs(120))
-                .unwrap()
-            {
-                EstimateEvent::Done(_) => break,
-                EstimateEvent::Stage { .. } => {}
-                other => panic!("the estimate did not finish: {other:?}"),
-            }
-        }
+        let readings: Vec<(String, u32)> =
+            readings.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+        common::estimate_and_wait(&sessions, view.id, &readings);
         let stored = sessions.store().estimate(view.id).unwrap().unwrap();
         (view.id, stored.made_at_ms)
     };

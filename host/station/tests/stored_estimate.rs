@@ -5,12 +5,11 @@
 mod common;
 
 use std::path::Path;
-use std::time::Duration;
 
 use tapeshape::cli::demo::demo_customer;
 use tapeshape::estimate::MeshFormat;
 use tapeshape::services::station::StationServices;
-use tapeshape::services::{EstimateEvent, EstimateRequest, EstimateSummary, Services as _};
+use tapeshape::services::{EstimateSummary, Services as _};
 use tapeshape::session::{EstimateInfo, Sessions};
 use tapeshape::store::SessionId;
 
@@ -23,30 +22,15 @@ fn measured_and_estimated(sessions: &Sessions) -> (SessionId, EstimateSummary) {
     for (name, v) in &customer.values {
         sessions.capture_keyboard(view.id, name, *v).unwrap();
     }
-    let services = StationServices::new(sessions.clone(), None);
-    let (tx, rx) = std::sync::mpsc::channel();
-    let _cancel = services.start_estimate(
-        EstimateRequest {
-            session: view.id,
-            readings: customer
-                .values
-                .iter()
-                .map(|(n, v)| (n.clone(), f64::from(*v) / 10.0))
-                .collect(),
-            sex: None,
-            kept: Vec::new(),
-        },
-        Box::new(move |ev| {
-            let _ = tx.send(ev);
-        }),
-    );
-    loop {
-        match rx.recv_timeout(Duration::from_secs(120)).unwrap() {
-            EstimateEvent::Done(s) => return (view.id, *s),
-            EstimateEvent::Stage { .. } => {}
-            other => panic!("the estimate did not finish: {other:?}"),
-        }
-    }
+    let readings: Vec<(String, u32)> = customer
+        .values
+        .iter()
+        .map(|(n, v)| (n.clone(), *v))
+        .collect();
+    (
+        view.id,
+        common::estimate_and_wait(sessions, view.id, &readings),
+    )
 }
 
 fn export_all(services: &StationServices, id: SessionId, dir: &Path) -> Vec<std::path::PathBuf> {

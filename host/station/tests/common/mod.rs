@@ -179,3 +179,39 @@ pub fn station(port: &Path, data: &Path, args: &[&str]) -> Child {
         .stderr(Stdio::null());
     cmd.spawn().unwrap()
 }
+
+/// Estimates `session` from `readings` (name, tenths of a millimetre) with
+/// the station's services, as the kiosk does when the operator presses `e`,
+/// and waits for it (two minutes at most); the estimate is then stored with
+/// its session. Panics when it fails or is cancelled.
+pub fn estimate_and_wait(
+    sessions: &tapeshape::session::Sessions,
+    session: tapeshape::store::SessionId,
+    readings: &[(String, u32)],
+) -> tapeshape::services::EstimateSummary {
+    use tapeshape::services::station::StationServices;
+    use tapeshape::services::{EstimateEvent, EstimateRequest, Services as _};
+    let services = StationServices::new(sessions.clone(), None);
+    let (tx, rx) = std::sync::mpsc::channel();
+    let _cancel = services.start_estimate(
+        EstimateRequest {
+            session,
+            readings: readings
+                .iter()
+                .map(|(n, v)| (n.clone(), f64::from(*v) / 10.0))
+                .collect(),
+            sex: None,
+            kept: Vec::new(),
+        },
+        Box::new(move |ev| {
+            let _ = tx.send(ev);
+        }),
+    );
+    loop {
+        match rx.recv_timeout(Duration::from_secs(120)).unwrap() {
+            EstimateEvent::Done(s) => return *s,
+            EstimateEvent::Stage { .. } => {}
+            other => panic!("the estimate did not finish: {other:?}"),
+        }
+    }
+}
