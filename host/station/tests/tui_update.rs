@@ -67,8 +67,9 @@ fn the_customer_chooses_to_keep_their_data_on_the_form() {
             })
             .expect("Enter creates a session")
     };
-    // Sex, age, set, then the data choice (the last field): k keeps.
-    let to_consent = || vec![key(KeyCode::Down); 3];
+    // Sex, age, set, readings, then the data choice (the last field): k
+    // keeps.
+    let to_consent = || vec![key(KeyCode::Down); 4];
     let with = |extra: &[Event]| {
         let mut k = to_consent();
         k.extend_from_slice(extra);
@@ -91,6 +92,47 @@ fn the_customer_chooses_to_keep_their_data_on_the_form() {
         consent_of(vec![key(KeyCode::Up), ch('k'), key(KeyCode::Enter)]),
         Consent::Visit
     );
+}
+
+#[test]
+fn careful_mode_is_chosen_per_customer_on_the_form() {
+    let careful_of = |a: &mut tapeshape::tui::app::App, keys: Vec<Event>| {
+        let fx = send(a, keys);
+        fx.iter()
+            .find_map(|e| match e {
+                Effect::CreateSession { careful, .. } => Some(*careful),
+                _ => None,
+            })
+            .expect("Enter creates a session")
+    };
+    // Sex, age, set, then the readings field.
+    let with = |extra: &[Event]| {
+        let mut k = vec![key(KeyCode::Down); 3];
+        k.extend_from_slice(extra);
+        k.push(key(KeyCode::Enter));
+        k
+    };
+    assert!(!careful_of(&mut app(false), with(&[])), "once by default");
+    assert!(careful_of(&mut app(false), with(&[ch('2')])));
+    assert!(careful_of(&mut app(false), with(&[key(KeyCode::Right)])));
+    assert!(!careful_of(&mut app(false), with(&[ch('2'), ch('1')])));
+    // 2 typed into the age is an age, not the choice.
+    assert!(!careful_of(
+        &mut app(false),
+        vec![key(KeyCode::Down), ch('2'), ch('5'), key(KeyCode::Enter)]
+    ));
+
+    // A station started with --careful offers it to each customer, and one
+    // customer taken once does not make the next one once too.
+    let mut a = app(false);
+    a.form = a.form.clone().with_careful_default(true);
+    assert!(!careful_of(&mut a, with(&[ch('1')])));
+    let next = a.form.next_customer();
+    assert!(next.careful, "the next customer gets the station's default");
+    let mut a = app(false);
+    a.form = a.form.clone().with_careful_default(false);
+    assert!(careful_of(&mut a, with(&[ch('2')])));
+    assert!(!a.form.next_customer().careful);
 }
 
 #[test]

@@ -113,12 +113,14 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub chart: Option<PathBuf>,
 
-    /// Careful mode (ISO 20685-1): every new session takes each
-    /// measurement twice, a third time when the two differ by more than
-    /// the measurement's allowable error (its ISO 20685-1 tolerance), and
-    /// keeps the median (of two: their mean); the report states the
-    /// session's technical error of measurement (TEM). A resumed session
-    /// keeps the mode it was started in.
+    /// Careful mode (ISO 20685-1): each measurement twice, a third time
+    /// when the two differ by more than the measurement's allowable error
+    /// (its ISO 20685-1 tolerance), the median kept (of two: their mean);
+    /// the report states the session's technical error of measurement
+    /// (TEM). The kiosk offers it to every new customer (the form's
+    /// `readings` field changes it per customer); in line mode it applies
+    /// to the new session. A resumed session keeps the mode it was started
+    /// in.
     #[arg(long)]
     pub careful: bool,
 

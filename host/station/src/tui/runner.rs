@@ -45,7 +45,8 @@ pub struct RunOptions {
     pub log_dir: PathBuf,
     /// Set preselected for new customers.
     pub default_set: String,
-    /// New sessions take each measurement twice (careful mode).
+    /// What the new-customer form offers: each measurement twice (careful
+    /// mode); the operator changes it per customer.
     pub careful: bool,
     /// The demo's simulated tape and keyboard (`tapeshape demo`; the kiosk
     /// has none).
@@ -133,7 +134,7 @@ async fn run_in(
         id_seed,
         default_set,
     });
-    app.form.careful = careful;
+    app.form = app.form.with_careful_default(careful);
     let mut ctx = Ctx {
         sessions,
         link,

@@ -62,6 +62,15 @@ pub fn consent_text(consent: Consent) -> String {
     }
 }
 
+/// The form's words for how often each measurement is taken.
+pub fn readings_text(careful: bool) -> String {
+    if careful {
+        tr!("readings-twice")
+    } else {
+        tr!("readings-once")
+    }
+}
+
 /// The sex stored in a session's notes by this form (`sex: female, age:
 /// 34`), for the estimate; `None` when not given or not written by it.
 pub fn sex_of_notes(notes: Option<&str>) -> Option<Sex> {
@@ -84,6 +93,8 @@ pub enum FormField {
     Set,
     /// Path of a custom set file.
     File,
+    /// Each measurement once, or twice (careful mode).
+    Readings,
     /// The customer's choice about their data.
     Consent,
 }
@@ -114,9 +125,12 @@ pub struct CustomerForm {
     pub customers_started: u64,
     /// Seed of the generated customer ids.
     pub id_seed: u64,
-    /// New sessions take each measurement twice (careful mode,
-    /// `tapeshape station --careful`).
+    /// This customer's session takes each measurement twice (careful mode),
+    /// chosen on the form.
     pub careful: bool,
+    /// What the form offers each new customer (`tapeshape station
+    /// --careful`): a careful customer does not make the next one careful.
+    pub careful_default: bool,
 }
 
 impl CustomerForm {
@@ -144,6 +158,16 @@ impl CustomerForm {
             customers_started: 0,
             id_seed,
             careful: false,
+            careful_default: false,
+        }
+    }
+
+    /// The form with `careful` as the station's choice for new customers.
+    pub fn with_careful_default(self, careful: bool) -> Self {
+        Self {
+            careful,
+            careful_default: careful,
+            ..self
         }
     }
 
@@ -154,7 +178,8 @@ impl CustomerForm {
             customer: customer_id(self.id_seed, n),
             customers_started: n,
             resume: None,
-            careful: self.careful,
+            careful: self.careful_default,
+            careful_default: self.careful_default,
             ..Self::new(self.id_seed, &self.set())
         }
     }
@@ -177,6 +202,7 @@ impl CustomerForm {
         if self.set_choice == BUILTIN_SET_CHOICES.len() {
             f.push(FormField::File);
         }
+        f.push(FormField::Readings);
         f.push(FormField::Consent);
         f
     }
@@ -220,6 +246,8 @@ enum Action {
     Male,
     Keep,
     Visit,
+    Once,
+    Twice,
     DeleteChar,
     Start,
 }
@@ -316,6 +344,20 @@ fn bindings(app: &App) -> Vec<Binding<Action>> {
                 Action::Visit,
             ));
         }
+        FormField::Readings => {
+            b.push(Binding::help_only(
+                &[ch('1')],
+                "1",
+                msg!("form-once-help"),
+                Action::Once,
+            ));
+            b.push(Binding::help_only(
+                &[ch('2')],
+                "2",
+                msg!("form-twice-help"),
+                Action::Twice,
+            ));
+        }
         FormField::Set => {}
     }
     b
@@ -388,6 +430,7 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                         .unwrap_or(0);
                     form.consent = CONSENTS[step(i, CONSENTS.len())];
                 }
+                FormField::Readings => form.careful = !form.careful,
                 _ => {}
             }
         }
@@ -395,12 +438,14 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
         Action::Male => form.sex = Some(Sex::Male),
         Action::Keep => form.consent = Consent::Keep,
         Action::Visit => form.consent = Consent::Visit,
+        Action::Once => form.careful = false,
+        Action::Twice => form.careful = true,
         Action::DeleteChar => {
             match form.field {
                 FormField::Customer => form.customer.pop(),
                 FormField::Age => form.age.pop(),
                 FormField::File => form.file.pop(),
-                FormField::Sex | FormField::Set | FormField::Consent => None,
+                FormField::Sex | FormField::Set | FormField::Readings | FormField::Consent => None,
             };
         }
         Action::Start => submit(app, fx),
@@ -522,6 +567,12 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             tr!("form-file-help"),
         ));
     }
+    lines.push(field(
+        FormField::Readings,
+        tr!("form-readings"),
+        format!("< {} >", readings_text(f.careful)),
+        tr!("form-readings-help"),
+    ));
     lines.push(field(
         FormField::Consent,
         tr!("form-consent"),
