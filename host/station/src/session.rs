@@ -557,6 +557,19 @@ impl Sessions {
             .map(|v| careful::report(detail, |name| v.allowed_of(name))))
     }
 
+    /// What each reading of careful session `detail` was (`careful round
+    /// 1, reading 2 of 2, kept 98.0 mm`), for its reading table; empty for a
+    /// session that takes each measurement once.
+    pub fn careful_reading_notes(
+        &self,
+        detail: &SessionDetail,
+    ) -> Result<Vec<(ReadingId, String)>, SessionError> {
+        Ok(self
+            .careful_view(detail)?
+            .map(|v| careful::reading_notes(detail, |name| v.allowed_of(name)))
+            .unwrap_or_default())
+    }
+
     /// The round the next reading of `measurement` in careful session
     /// `detail` goes to (its readings so far and how many it takes), or
     /// `None` when the session takes each measurement once.

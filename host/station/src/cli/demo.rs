@@ -224,7 +224,8 @@ fn run_headless(
     })?;
     outln!()?;
     let detail = sessions.store().open_session(session.id)?;
-    out!("{}", crate::cli::session::render(&detail))?;
+    let careful = sessions.careful_reading_notes(&detail)?;
+    out!("{}", crate::cli::session::render(&detail, &careful))?;
     outln!()?;
     let services = StationServices::new(sessions, reading_tolerance(args.reading_tolerance)?);
     headless_estimate(

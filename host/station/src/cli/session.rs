@@ -10,7 +10,9 @@ use crate::cli::Global;
 use crate::estimate::MeshFormat;
 use crate::services::station::StationServices;
 use crate::services::Services as _;
-use crate::store::{ReadingSource, SessionDetail, SessionId, SessionStatus, StoredEstimate};
+use crate::store::{
+    ReadingId, ReadingSource, SessionDetail, SessionId, SessionStatus, StoredEstimate,
+};
 use crate::text::{format_tenth_mm, format_time_ms};
 
 /// Arguments of `tapeshape session`.
@@ -111,7 +113,8 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
                 None => None,
             };
             let detail = store.open_session(SessionId(id))?;
-            out!("{}", render(&detail))?;
+            let careful = sessions.careful_reading_notes(&detail)?;
+            out!("{}", render(&detail, &careful))?;
             if let Some(report) = sessions.careful_report(&detail)? {
                 for line in crate::session::careful::lines(&report) {
                     outln!("{line}")?;
@@ -195,8 +198,10 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<()> {
 
 /// A session as text: header lines, then one line per reading in commit
 /// order; superseded readings (retaken later) are marked, keyboard
-/// readings say so.
-pub fn render(d: &SessionDetail) -> String {
+/// readings say so. `careful`: what each reading of a careful session was
+/// (`Sessions::careful_reading_notes`); such a reading's repeat is not
+/// called a retake.
+pub fn render(d: &SessionDetail, careful: &[(ReadingId, String)]) -> String {
     let s = &d.session;
     let mut out = format!(
         "session {}  customer {}  status {}  set {}\ncreated {}  updated {}\n",
@@ -220,8 +225,13 @@ pub fn render(d: &SessionDetail) -> String {
     ));
     for r in &d.readings {
         let mut notes = Vec::new();
-        if let Some(by) = r.superseded_by {
-            notes.push(format!("retaken (reading {by})"));
+        match careful.iter().find(|(id, _)| *id == r.id) {
+            Some((_, note)) => notes.push(note.clone()),
+            None => {
+                if let Some(by) = r.superseded_by {
+                    notes.push(format!("retaken (reading {by})"));
+                }
+            }
         }
         if r.withdrawn_at_ms.is_some() {
             notes.push("undone".to_string());
@@ -271,4 +281,61 @@ pub fn render_estimate(e: &StoredEstimate, d: &SessionDetail, kept: &[(String, u
         },
         d.session.id
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::render;
+    use crate::session::{NewSession, Sessions};
+
+    /// A careful session's repeats are named by their round, not called
+    /// retakes; an undone reading says so; a session taken once still
+    /// calls a superseded reading "retaken".
+    #[test]
+    fn session_show_names_careful_repeats_and_retakes_apart() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = Sessions::open(dir.path()).unwrap();
+        let careful = NewSession {
+            careful: true,
+            ..NewSession::default()
+        };
+        let c = s.start_new("c-careful", "quick", None, careful).unwrap().id;
+        let once = s
+            .start_new("c-once", "quick", None, NewSession::default())
+            .unwrap()
+            .id;
+        for id in [c, once] {
+            for v in [9_820, 9_930, 9_850] {
+                s.capture_keyboard(id, "chest", v).unwrap();
+            }
+            let undo = s.capture_keyboard(id, "stature", 17_650).unwrap().id;
+            s.withdraw(undo).unwrap();
+        }
+        let text = |id| {
+            let d = s.store().open_session(id).unwrap();
+            render(&d, &s.careful_reading_notes(&d).unwrap())
+        };
+        let careful_text = text(c);
+        assert!(!careful_text.contains("retaken"), "{careful_text}");
+        for note in [
+            "careful round 1, reading 1 of 2",
+            "careful round 1, reading 2 of 3",
+            "careful round 1, reading 3 of 3, kept 985.0 mm",
+        ] {
+            assert_eq!(
+                careful_text.matches(note).count(),
+                1,
+                "{note}: {careful_text}"
+            );
+        }
+        assert_eq!(careful_text.matches("undone").count(), 1, "{careful_text}");
+        let once_text = text(once);
+        assert!(!once_text.contains("careful"), "{once_text}");
+        assert_eq!(
+            once_text.matches("retaken (reading").count(),
+            2,
+            "{once_text}"
+        );
+        assert_eq!(once_text.matches("undone").count(), 1, "{once_text}");
+    }
 }

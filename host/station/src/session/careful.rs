@@ -32,7 +32,7 @@
 
 use serde::Serialize;
 
-use crate::store::{SessionDetail, StoredReading};
+use crate::store::{ReadingId, SessionDetail, StoredReading};
 
 /// Readings a round takes when the first two agree.
 pub const READINGS: usize = 2;
@@ -285,6 +285,50 @@ pub fn report(detail: &SessionDetail, allowed: impl Fn(&str) -> Option<u32>) -> 
         measurements,
         session_tem: tem(&all_pairs),
     }
+}
+
+/// What each reading of careful session `detail` was, for its reading
+/// table (`tapeshape session show`): `careful round R, reading K of N`, and
+/// on the reading that finished a round `, kept V mm` (the round's median).
+/// A repeat supersedes the reading before it as a retake does; this says
+/// which it was. `allowed(name)`: the allowable error in tenths of a mm.
+/// Withdrawn readings are in no chain and get no note.
+pub fn reading_notes(
+    detail: &SessionDetail,
+    allowed: impl Fn(&str) -> Option<u32>,
+) -> Vec<(ReadingId, String)> {
+    let mut out = Vec::new();
+    for (name, chain) in chains(detail) {
+        let allowed = allowed(&name);
+        let mut round: Option<Round> = None;
+        let mut number = 0;
+        for r in chain {
+            let open = match round.take() {
+                Some(open) if !open.complete() => open,
+                _ => {
+                    number += 1;
+                    Round {
+                        readings: Vec::new(),
+                        allowed,
+                    }
+                }
+            };
+            let mut open = open;
+            open.readings.push(r.value_tenth_mm);
+            // How many this round takes, as far as its readings tell.
+            let of = open.needed().max(open.readings.len());
+            let mut note = format!(
+                "careful round {number}, reading {} of {of}",
+                open.readings.len()
+            );
+            if let Some(kept) = open.kept() {
+                note.push_str(&format!(", kept {:.1} mm", f64::from(kept) / 10.0));
+            }
+            out.push((r.id, note));
+            round = Some(open);
+        }
+    }
+    out
 }
 
 /// The report as text lines (`tapeshape session show`, the result screen):

@@ -208,3 +208,41 @@ fn a_store_from_before_careful_mode_opens_with_its_sessions_taken_once() {
     // A retake of a session taken once replaces: the latest reading stands.
     assert_eq!(v.readings, vec![("stature".to_string(), 17_700)]);
 }
+
+#[test]
+fn each_reading_of_a_careful_session_says_which_round_and_reading_it_was() {
+    let (_dir, s, id) = careful_session();
+    let a = take(&s, id, "chest", 9_820);
+    let b = take(&s, id, "chest", 9_930); // 11 mm apart, 9 mm allowed
+    let c = take(&s, id, "chest", 9_850);
+    let d = take(&s, id, "stature", 17_650);
+    let e = take(&s, id, "stature", 17_660);
+    let f = take(&s, id, "stature", 17_700); // a retake: round 2
+    let undone = take(&s, id, "stature", 17_990);
+    s.withdraw(undone).unwrap();
+    let detail = s.store().open_session(id).unwrap();
+    let mut notes = s.careful_reading_notes(&detail).unwrap();
+    notes.sort();
+    let want = |id: ReadingId, t: &str| (id, t.to_string());
+    assert_eq!(
+        notes,
+        vec![
+            want(a, "careful round 1, reading 1 of 2"),
+            want(b, "careful round 1, reading 2 of 3"),
+            want(c, "careful round 1, reading 3 of 3, kept 985.0 mm"),
+            want(d, "careful round 1, reading 1 of 2"),
+            want(e, "careful round 1, reading 2 of 2, kept 1765.5 mm"),
+            want(f, "careful round 2, reading 1 of 2"),
+        ]
+    );
+    // A session taken once has no such notes.
+    let dir = tempfile::tempdir().unwrap();
+    let once = Sessions::open(dir.path()).unwrap();
+    let v = once
+        .start_new("c-once", "quick", None, NewSession::default())
+        .unwrap();
+    take(&once, v.id, "chest", 9_820);
+    take(&once, v.id, "chest", 9_930);
+    let detail = once.store().open_session(v.id).unwrap();
+    assert!(once.careful_reading_notes(&detail).unwrap().is_empty());
+}
