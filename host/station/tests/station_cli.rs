@@ -298,3 +298,140 @@ fn a_regular_file_is_not_taken_for_a_port() {
         "{err}"
     );
 }
+
+/// Line mode in careful mode: each measurement is asked for twice, a third
+/// time when the two differ by more than its allowable error; the median is
+/// kept and stored readings are named after the measurement the operator is
+/// on. Each value is confirmed only after the line asking for it, as an
+/// operator would.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn careful_line_mode_asks_again_and_keeps_the_median() {
+    use std::io::BufRead as _;
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    let dev = SimDevice::start(common::compatible());
+    let set = tapeshape_measure::MeasurementSet::builtin("quick").unwrap();
+    let names: Vec<String> = set.definitions.iter().map(|d| d.name.clone()).collect();
+    assert_eq!(names[0], "stature");
+    assert_eq!(names[1], "chest");
+    let mut child = tapeshape(
+        &data,
+        &[
+            "station",
+            "--customer",
+            "dora",
+            "--set",
+            "quick",
+            "--careful",
+        ],
+    )
+    .arg("--port")
+    .arg(&dev.port)
+    .arg("--exit-when-complete")
+    .spawn()
+    .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    let stdout = child.stdout.take().unwrap();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout).lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let mut seen: Vec<String> = Vec::new();
+    // Waits for a line starting with `prefix` (after those seen so far).
+    let mut expect = |prefix: &str| -> String {
+        let deadline = std::time::Instant::now() + Duration::from_secs(20);
+        loop {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            match rx.recv_timeout(left) {
+                Ok(line) => {
+                    seen.push(line.clone());
+                    if line.starts_with(prefix) {
+                        return line;
+                    }
+                }
+                Err(_) => panic!("no line `{prefix}...`; saw:\n{}", seen.join("\n")),
+            }
+        }
+    };
+    let take = |v: u32| dev.state.lock().unwrap().take(v);
+
+    // Stature: 3 mm apart, 4 mm allowed: two readings, their mean kept.
+    expect("next stature (");
+    take(17_650);
+    assert_eq!(
+        expect("next "),
+        format!("next stature ({}) reading 2 of 2", set.definitions[0].label),
+        "the second reading of the same measurement"
+    );
+    take(17_680);
+    assert_eq!(
+        expect("kept "),
+        "kept stature = 1766.5 mm (the median of its last round)"
+    );
+    // Chest: 11 mm apart, 9 mm allowed: a third, the median kept.
+    let next = expect("next ");
+    assert!(next.starts_with("next chest ("), "{next}");
+    take(9_820);
+    assert!(expect("next ").ends_with("reading 2 of 2"));
+    take(9_930);
+    let third = expect("next ");
+    assert!(
+        third.starts_with("next chest (")
+            && third.ends_with("reading 3 of 3: the two differ by 11.0 mm (allowed 9.0 mm)"),
+        "{third}"
+    );
+    take(9_850);
+    assert_eq!(
+        expect("kept "),
+        "kept chest = 985.0 mm (the median of its last round)"
+    );
+    // The rest: two equal readings each.
+    for (i, name) in names.iter().enumerate().skip(2) {
+        let next = expect("next ");
+        assert!(next.starts_with(&format!("next {name} (")), "{next}");
+        let v = 3_000 + 100 * u32::try_from(i).unwrap();
+        take(v);
+        expect("next ");
+        take(v);
+        expect(&format!("kept {name} = "));
+    }
+    expect("complete");
+    let status = wait_exit(&mut child, 20).await;
+    assert!(status.success(), "{}", seen.join("\n"));
+
+    // Every reading is stored under its measurement, nothing lost: 2 + 3 +
+    // 2 for each of the other seven.
+    let store = Store::open(&data).unwrap();
+    let list = store.list_sessions().unwrap();
+    assert_eq!(list.len(), 1);
+    let id = list[0].session.id;
+    assert!(store.is_careful(id).unwrap());
+    let detail = store.open_session(id).unwrap();
+    let per_name = |n: &str| {
+        detail
+            .readings
+            .iter()
+            .filter(|r| r.measurement == n)
+            .map(|r| r.value_tenth_mm)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(detail.readings.len(), 2 + 3 + 2 * (names.len() - 2));
+    assert_eq!(per_name("stature"), vec![17_650, 17_680]);
+    assert_eq!(per_name("chest"), vec![9_820, 9_930, 9_850]);
+    // `session show` names the repeats and states the TEM.
+    let out = tapeshape(&data, &["session", "show", &id.to_string()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(
+        text.contains("careful round 1, reading 3 of 3, kept 985.0 mm"),
+        "{text}"
+    );
+    assert!(!text.contains("retaken"), "{text}");
+    assert!(text.contains("careful mode: session TEM"), "{text}");
+}
