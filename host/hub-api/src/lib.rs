@@ -142,6 +142,12 @@ pub enum EventBody {
         /// The customer's choice (`None`: not asked, e.g. a session from
         /// the line-mode station; the retention treats it as `visit`).
         consent: Option<Consent>,
+        /// Careful mode: each measurement taken twice (a third time when the
+        /// two differ by more than its allowable error) and the median kept,
+        /// so a reading superseded in it is a repeat, not a retake. `false`
+        /// when absent (stations from before careful mode).
+        #[serde(default)]
+        careful: bool,
         /// When it was created.
         created_at_ms: i64,
     },
@@ -567,6 +573,41 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_created_event_without_the_careful_flag_reads_as_taken_once() {
+        // What a station from before careful mode sends.
+        let old = r#"{"seq":1,"at_ms":2,"kind":"created","session":4,"customer":"c-1",
+            "set":"quick","notes":null,"consent":"visit","created_at_ms":2}"#;
+        let e: Event = serde_json::from_str(old).unwrap();
+        assert!(matches!(e.body, EventBody::Created { careful: false, .. }));
+        let careful = Event {
+            body: match e.body {
+                EventBody::Created {
+                    session,
+                    customer,
+                    set,
+                    notes,
+                    consent,
+                    created_at_ms,
+                    ..
+                } => EventBody::Created {
+                    session,
+                    customer,
+                    set,
+                    notes,
+                    consent,
+                    careful: true,
+                    created_at_ms,
+                },
+                other => other,
+            },
+            ..e
+        };
+        let json = serde_json::to_value(&careful).unwrap();
+        assert_eq!(json["careful"], true);
+        assert_eq!(serde_json::from_value::<Event>(json).unwrap(), careful);
+    }
+
+    #[test]
     fn events_read_as_flat_json_with_their_kind() {
         let e = Event {
             seq: 7,
@@ -607,6 +648,7 @@ mod tests {
             set: None,
             notes: None,
             consent: Some(Consent::Keep),
+            careful: false,
             created_at_ms: 0,
         };
         assert!(created("c-12ab34").validate().is_ok());

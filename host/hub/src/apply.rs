@@ -98,8 +98,8 @@ macro_rules! stmt {
 const LOCK_CUSTOMER: &str = "SELECT pg_advisory_xact_lock(hashtextextended($1, 0))";
 const CREATE_SESSION: &str =
     "INSERT INTO sessions (station, session, customer, customer_hash, set_name, notes,
-        consent, status, created_at_ms, updated_at_ms)
-     SELECT $1, $2, $3, $4, $5, $6, $7, 'open', $8, $8
+        consent, status, created_at_ms, updated_at_ms, careful)
+     SELECT $1, $2, $3, $4, $5, $6, $7, 'open', $8, $8, $9
      WHERE NOT EXISTS (SELECT 1 FROM erasures WHERE customer_hash = $4 AND erased_at_ms >= $8)
      ON CONFLICT (station, session) DO NOTHING";
 /// A session of a customer erased after it was created, arriving late (its
@@ -173,6 +173,7 @@ fn statements(station: &str, e: &Event, out: &mut Vec<Stmt>) -> Result<(), Batch
             set,
             notes,
             consent,
+            careful,
             created_at_ms,
         } => {
             let hash = tapeshape_hub_api::customer_hash(customer);
@@ -185,7 +186,8 @@ fn statements(station: &str, e: &Event, out: &mut Vec<Stmt>) -> Result<(), Batch
                 set.clone(),
                 notes.clone(),
                 consent.map(|c| c.as_str().to_string()),
-                *created_at_ms
+                *created_at_ms,
+                *careful
             ));
             out.push(stmt!(NOTICE_LATE_ERASURE, st(), hash, *created_at_ms));
         }

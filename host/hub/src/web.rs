@@ -235,7 +235,9 @@ pub fn session_page(s: &SessionFull) -> String {
     for r in &s.readings {
         let mut note = Vec::new();
         if let Some(by) = r.superseded_by {
-            note.push(format!("retaken (reading {by})"));
+            // In careful mode a reading is superseded by its repeat.
+            let word = if s.careful { "repeated" } else { "retaken" };
+            note.push(format!("{word} (reading {by})"));
         }
         if r.withdrawn {
             note.push("undone".to_string());
@@ -300,7 +302,12 @@ pub fn session_page(s: &SessionFull) -> String {
                 .as_deref()
                 .map(|n| format!("<p>Notes: {}</p>", escape(n)))
                 .unwrap_or_default(),
-            "",
+            if s.careful {
+                "<p id=careful>Careful mode: each measurement taken twice (a third time when \
+                 the two differed by more than its allowable error), the median kept.</p>"
+            } else {
+                ""
+            },
             st = escape(&s.station),
             id = s.session,
         ),

@@ -21,6 +21,7 @@ fn created(seq: i64, session: i64, customer: &str, at: i64) -> Event {
             set: Some("quick".into()),
             notes: None,
             consent: Some(Consent::Visit),
+            careful: false,
             created_at_ms: at,
         },
     }
@@ -495,4 +496,50 @@ fn an_edited_migration_is_refused() {
         "{e}"
     );
     assert!(e.to_string().contains("was edited"), "{e}");
+}
+
+#[test]
+fn a_careful_session_is_stored_as_careful_and_its_page_says_repeated() {
+    let Some(hub) =
+        TestHub::start("a_careful_session_is_stored_as_careful_and_its_page_says_repeated")
+    else {
+        return;
+    };
+    let token = hub.station("store-a");
+    let mut careful = created(1, 1, "c-1", 100);
+    if let EventBody::Created { careful: c, .. } = &mut careful.body {
+        *c = true;
+    }
+    let events = vec![
+        careful,
+        reading(2, 1, 1, "chest", None),
+        // The second reading of the round supersedes the first.
+        reading(3, 1, 2, "chest", Some(1)),
+        created(4, 2, "c-2", 200),
+        reading(5, 2, 3, "chest", None),
+        reading(6, 2, 4, "chest", Some(3)),
+    ];
+    assert_eq!(sync(&hub, &token, "store-a", events).committed_through, 6);
+    assert_eq!(hub.count("SELECT COUNT(*) FROM sessions WHERE careful"), 1);
+    let page = |session| {
+        let full = hub
+            .rt
+            .block_on(hub.db.session_full("store-a", session))
+            .unwrap()
+            .expect("the hub holds it");
+        (full.careful, tapeshape_hub::web::session_page(&full))
+    };
+    let (c, p) = page(1);
+    assert!(c);
+    assert!(
+        p.contains("id=careful") && p.contains("repeated (reading 2)"),
+        "{p}"
+    );
+    assert!(!p.contains("retaken"), "{p}");
+    let (c, p) = page(2);
+    assert!(!c);
+    assert!(
+        p.contains("retaken (reading 4)") && !p.contains("id=careful"),
+        "{p}"
+    );
 }

@@ -122,6 +122,7 @@ fn the_session_page_draws_the_body_and_needs_the_password() {
             set: Some("quick".into()),
             notes: Some("sex: female".into()),
             consent: Some(Consent::Keep),
+            careful: false,
             created_at_ms: 1_700_000_000_000,
         },
     };

@@ -208,3 +208,29 @@ fn the_hub_s_commit_marks_exactly_the_events_it_took() {
     s.mark_hub_committed(6).unwrap();
     assert_eq!(committed(&s), [1, 2, 3, 4, 5, 6]);
 }
+
+#[test]
+fn a_careful_session_says_so_in_its_created_event() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sessions::open(dir.path()).unwrap();
+    let careful = tapeshape::session::NewSession {
+        careful: true,
+        ..tapeshape::session::NewSession::default()
+    };
+    s.start_new("c-1", "quick", None, careful).unwrap();
+    s.start_new("c-2", "quick", None, Default::default())
+        .unwrap();
+    let flags: Vec<(String, bool)> = events(&s)
+        .into_iter()
+        .filter_map(|(_, b)| match b {
+            EventBody::Created {
+                customer, careful, ..
+            } => Some((customer, careful)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        flags,
+        vec![("c-1".to_string(), true), ("c-2".to_string(), false)]
+    );
+}

@@ -177,10 +177,16 @@ pub struct Migration {
 }
 
 /// Every hub migration in order: entry `i` takes the schema to version `i + 1`.
-pub const MIGRATIONS: &[Migration] = &[Migration {
-    file: "0001_chain.sql",
-    sql: include_str!("../../migrations/0001_chain.sql"),
-}];
+pub const MIGRATIONS: &[Migration] = &[
+    Migration {
+        file: "0001_chain.sql",
+        sql: include_str!("../../migrations/0001_chain.sql"),
+    },
+    Migration {
+        file: "0002_careful.sql",
+        sql: include_str!("../../migrations/0002_careful.sql"),
+    },
+];
 
 /// An advisory lock number the migrations take, so that two hubs started
 /// at once against a new database do not both migrate it.

@@ -67,6 +67,9 @@ pub struct SessionFull {
     pub consent: Option<String>,
     /// Created, ms since the Unix epoch.
     pub created_at_ms: i64,
+    /// Careful mode: a superseded reading is a repeat of its round, not a
+    /// retake.
+    pub careful: bool,
     /// Every reading (retakes and withdrawn ones included), oldest first.
     pub readings: Vec<ReadingRow>,
     /// Marks (measurement, mark word).
@@ -129,7 +132,7 @@ impl Db {
         let client = self.client().await?;
         let Some(s) = client
             .query_opt(
-                "SELECT customer, status, set_name, notes, consent, created_at_ms
+                "SELECT customer, status, set_name, notes, consent, created_at_ms, careful
                  FROM sessions WHERE station = $1 AND session = $2",
                 &[&station, &session],
             )
@@ -189,6 +192,7 @@ impl Db {
             notes: s.get(3),
             consent: s.get(4),
             created_at_ms: s.get(5),
+            careful: s.get(6),
             readings,
             marks,
             estimate,

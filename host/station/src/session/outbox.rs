@@ -81,6 +81,7 @@ pub(crate) fn record(tx: &WriteTx<'_>, change: &Change) -> Result<(), StoreError
                     set: s.measurement_set,
                     notes: s.notes,
                     consent: s.consent.map(consent),
+                    careful: tx.is_careful(*session)?,
                     created_at_ms: s.created_at_ms,
                 },
             )

@@ -63,6 +63,17 @@ impl<'a> WriteTx<'a> {
         Ok(())
     }
 
+    /// Does session `id` take each measurement twice, inside this
+    /// transaction (as [`super::Store::is_careful`])?
+    pub fn is_careful(&self, id: SessionId) -> Result<bool, StoreError> {
+        self.tx
+            .query_row("SELECT careful FROM sessions WHERE id = ?1", [id.0], |r| {
+                r.get::<_, bool>(0)
+            })
+            .optional()?
+            .ok_or(StoreError::NoSuchSession(id))
+    }
+
     fn status(&self, session: SessionId) -> Result<SessionStatus, StoreError> {
         self.tx
             .query_row(
