@@ -361,3 +361,62 @@ async fn tapeshape_ports_prints_what_answered_and_why_not() {
         "{stdout}"
     );
 }
+
+/// A port this user may not open: `tapeshape ports` says so and what to do
+/// (join the port's group), and probes nothing else for it. As root (CI,
+/// containers) the command runs as `nobody` through `setpriv`, since root
+/// opens any mode; otherwise the pty is made unreadable to its owner.
+#[test]
+fn a_port_this_user_may_not_open_says_to_join_its_group() {
+    use std::os::unix::fs::PermissionsExt as _;
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let silent = rt.block_on(async { silent_pty() });
+    let root = rustix::process::geteuid().is_root();
+    let tmp = tempfile::tempdir().unwrap();
+    // The data directory must be usable by `nobody` too.
+    std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o777)).unwrap();
+    let mode = if root { 0o600 } else { 0o000 };
+    std::fs::set_permissions(&silent.path, std::fs::Permissions::from_mode(mode)).unwrap();
+    let mut cmd = if root {
+        if std::process::Command::new("setpriv")
+            .arg("--version")
+            .output()
+            .is_err()
+        {
+            if std::env::var_os("CI").is_some() {
+                panic!("setpriv (util-linux) is missing: .ci/run installs it");
+            }
+            eprintln!("skipped: running as root without setpriv");
+            return;
+        }
+        let mut c = std::process::Command::new("setpriv");
+        c.args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+            .arg(env!("CARGO_BIN_EXE_tapeshape"));
+        c
+    } else {
+        std::process::Command::new(env!("CARGO_BIN_EXE_tapeshape"))
+    };
+    let out = cmd
+        .args(["ports", "--timeout-ms", "300", "--also"])
+        .arg(&silent.path)
+        .env("TAPESHAPE_DATA_DIR", tmp.path())
+        .env("LC_ALL", "C")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let row = stdout
+        .lines()
+        .find(|l| l.starts_with(&silent.path.display().to_string()))
+        .unwrap_or_else(|| panic!("{} not listed:\n{stdout}", silent.path.display()));
+    assert!(
+        row.contains("no: permission denied: add this user to the port's group")
+            && row.contains("usermod -aG dialout"),
+        "{row}"
+    );
+    assert!(stdout.contains("No tape station answered"), "{stdout}");
+}
