@@ -267,6 +267,13 @@ pub fn measurement_label(set: &str, name: &str, label: &str) -> String {
     text_or(&format!("measure-{set}-{name}"), label)
 }
 
+/// The instruction for measurement `name` of set `set`, whose own
+/// description is `description`: the catalogue's `measure-<set>-<name>-how`
+/// where it has one (the `quick` set), else the set's description.
+pub fn measurement_instruction(set: &str, name: &str, description: &str) -> String {
+    text_or(&format!("measure-{set}-{name}-how"), description)
+}
+
 /// Operator text of message `id` in the chosen language, formatted now:
 /// `tr!("key")`, `tr!("key", name = value, n = 3)` (a value is anything
 /// Fluent takes: text, or a number for plural forms). The id must be a
