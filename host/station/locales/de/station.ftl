@@ -301,6 +301,62 @@ estimating-back = zurück zur Messung
 estimating-back-help = zurück zur Messung
 estimating-cancelled = Berechnung abgebrochen; die Messwerte sind unverändert
 
+## Result screen
+
+result-export = exportieren
+result-export-help = den Körper und report.json exportieren (die Sitzung wird als fertig markiert)
+result-format = Format
+result-format-help = das Format des Exports: GLB, OBJ oder PLY
+result-card = Karte
+result-card-help = die Karte für den Kunden: ein PDF mit dem Körper, den Messwerten und den Größen, neben den Exporten abgelegt (die Sitzung bleibt, wie sie ist)
+result-back = zurück
+result-back-help = zurück zur Messung (auch Esc)
+result-next-customer = nächster Kunde
+result-next-customer-help = der nächste Kunde (diese Sitzung wird als fertig markiert)
+result-none = Noch kein Ergebnis: e auf dem Messbildschirm drücken
+result-front = vorn
+result-side = Seite
+result-title = Ergebnis ({ $seconds } s)
+result-col-measurement = Messung
+result-col-target = Ziel
+result-col-body = Körper
+result-col-error-mm = Abw. mm
+result-col-error-in = Abw. in
+result-plausibility = Plausibilität
+result-plausibility-value = Körper { $shape } (Mahalanobis { $body }), Messwerte { $readings } ({ $distance })
+plausibility-typical = typisch
+plausibility-unusual = ungewöhnlich
+plausibility-implausible = unplausibel
+result-careful = genau
+result-tem = TEM { $tem } mm ({ $percent } %) über { $pairs } Messpaare
+result-more-warnings = +{ $n } weitere
+result-exported = exportiert { $files }
+result-exported-in = in { $dir }
+result-export-hint = exportiert { $format } + report.json
+result-other-format = anderes Format
+result-card-file = Karte { $file }
+result-exporting = Wird exportiert...
+result-writing-card = Die Karte wird geschrieben...
+result-stored = Ergebnis gespeichert { $time }
+result-stored-earlier = Ergebnis gespeichert { $time }, vor der letzten Änderung der Messwerte: b, dann e berechnet neu
+result-exported-notice = { $n } Dateien nach { $dir } exportiert
+result-export-failed = Export fehlgeschlagen: { $error }
+result-card-written = Karte geschrieben: { $path }
+result-card-failed = Die Karte wurde nicht geschrieben: { $error }; die Sitzung und ihr Ergebnis bleiben erhalten
+# The Sizes box (garment names and size labels are the chart's own)
+result-sizes = Größen
+sizes-best = { $garment }: { $size } ({ $percent } %)
+sizes-or = oder { $size }
+sizes-no-size = { $garment }: keine Größe ({ $missing } unbekannt)
+sizes-none = keine Größen: { $error }
+sizes-none-report = keine Größen: das gespeicherte Ergebnis ist nicht lesbar ({ $error })
+sizes-tight = { $place } zu eng
+sizes-loose = { $place } zu weit
+sizes-too-short = { $place } zu kurz
+sizes-too-long = { $place } zu lang
+sizes-narrow = { $place } zu schmal
+sizes-wide = { $place } zu breit
+
 ## History screen
 
 history-title = Sitzungen ({ $n })

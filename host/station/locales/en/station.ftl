@@ -298,6 +298,62 @@ estimating-back = back to measuring
 estimating-back-help = back to measuring
 estimating-cancelled = Estimate cancelled; the readings are unchanged
 
+## Result screen
+
+result-export = export
+result-export-help = export the body and report.json (the session is marked done)
+result-format = format
+result-format-help = the export's format: GLB, OBJ or PLY
+result-card = card
+result-card-help = the customer's card: a PDF with the body, the readings and the sizes, written beside the exports (the session stays as it is)
+result-back = back
+result-back-help = back to measuring (also Esc)
+result-next-customer = next customer
+result-next-customer-help = the next customer (this session is marked done)
+result-none = No estimate yet: press e on the measuring screen
+result-front = front
+result-side = side
+result-title = Estimate ({ $seconds } s)
+result-col-measurement = measurement
+result-col-target = target
+result-col-body = body
+result-col-error-mm = err mm
+result-col-error-in = err in
+result-plausibility = plausibility
+result-plausibility-value = { $shape } body (mahalanobis { $body }), readings { $readings } ({ $distance })
+plausibility-typical = typical
+plausibility-unusual = unusual
+plausibility-implausible = implausible
+result-careful = careful
+result-tem = TEM { $tem } mm ({ $percent } %) over { $pairs } measurement pairs
+result-more-warnings = +{ $n } more
+result-exported = exported { $files }
+result-exported-in = in { $dir }
+result-export-hint = exports { $format } + report.json
+result-other-format = other format
+result-card-file = card { $file }
+result-exporting = Exporting...
+result-writing-card = Writing the card...
+result-stored = Estimate stored { $time }
+result-stored-earlier = Estimate stored { $time }, before the last change to the readings: b, then e, estimates again
+result-exported-notice = Exported { $n } files to { $dir }
+result-export-failed = Export failed: { $error }
+result-card-written = Card written to { $path }
+result-card-failed = The card was not written: { $error }; the session and its estimate are kept
+# The Sizes box (garment names and size labels are the chart's own)
+result-sizes = Sizes
+sizes-best = { $garment }: { $size } ({ $percent } %)
+sizes-or = or { $size }
+sizes-no-size = { $garment }: no size ({ $missing } not known)
+sizes-none = no sizes: { $error }
+sizes-none-report = no sizes: the stored report cannot be read ({ $error })
+sizes-tight = tight at the { $place }
+sizes-loose = loose at the { $place }
+sizes-too-short = too short for the { $place }
+sizes-too-long = too long for the { $place }
+sizes-narrow = narrow at the { $place }
+sizes-wide = wide at the { $place }
+
 ## History screen
 
 history-title = Sessions ({ $n })
