@@ -112,6 +112,28 @@ reject-bad-field = eine Zeile, deren Feld { $field } nicht ist, was ein Maßband
 reject-negative = eine negative Länge
 reject-out-of-range = eine Länge, die es nicht messen kann ({ $value })
 
+## Finding the tape (tapeshape station without --port; the kiosk's words,
+## the line mode's stay English)
+
+search-nothing-answered = Kein Maßband hat geantwortet. Das USB-Kabel des Maßbands an diesen Rechner anschließen (beim nRF52840-DK: die nRF-USB-Buchse, nicht die Debug-Buchse).
+search-no-ports = Keine seriellen Anschlüsse vorhanden.
+search-ports-seen = Gesehene serielle Anschlüsse:
+search-several = { $n } Maßbänder haben geantwortet. Welches gehört zu dieser Station?
+search-press-number = Seine Nummer drücken; q beendet.
+search-looking-again = Sucht jede Sekunde erneut; q beendet.
+probe-answered = Maßband { $device } hat geantwortet (Start { $boot }, Firmware { $firmware }, Protokoll { $protocol })
+probe-incompatible = Maßband { $device } antwortete mit Protokoll { $protocol } (Firmware { $firmware }), dieses Programm spricht { $host }: das ältere der beiden aktualisieren
+probe-not-probed = nicht geprüft: ein anderes Gerät (`tapeshape ports --probe-all` versucht es, `--port PATH` nimmt es)
+probe-silent = keine Antwort in { $ms } ms (kein Maßband, oder seine Firmware läuft nicht)
+probe-not-the-protocol = schickte { $bytes } Bytes in { $ms } ms, die nicht das tapeshape-Protokoll sind ({ $bad } fehlerhafte Rahmen): ein anderes Gerät
+probe-no-hello = schickte { $frames } Protokollrahmen, aber keine Begrüßung in { $ms } ms
+probe-permission-denied = keine Berechtigung: diesen Benutzer zur Gruppe des Anschlusses hinzufügen (unter Debian und Ubuntu `sudo usermod -aG dialout $USER`, dann neu anmelden)
+probe-busy = belegt: ein anderes Programm hat ihn offen (eine andere tapeshape-Station?)
+probe-gone = kein solcher Anschluss (abgesteckt?)
+probe-open-failed = lässt sich nicht öffnen: { $error }
+probe-io = Fehler beim Prüfen: { $error }
+probe-debug-port = das ist der Debug-Anschluss (J-Link) der Platine: die Station spricht über den nRF-USB-Anschluss
+
 ## New customer screen
 
 new-customer-title = Neuer Kunde

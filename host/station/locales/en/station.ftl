@@ -112,6 +112,28 @@ reject-bad-field = a line whose field { $field } is not what a tape sends
 reject-negative = a negative length
 reject-out-of-range = a length it cannot measure ({ $value })
 
+## Finding the tape (tapeshape station without --port; the kiosk's words,
+## the line mode's stay English)
+
+search-nothing-answered = No tape station answered. Plug the tape station's USB cable into this computer (on the nRF52840-DK: the nRF USB connector, not the debug one).
+search-no-ports = No serial ports are attached.
+search-ports-seen = Serial ports seen:
+search-several = { $n } tape stations answered. Which one is this station's tape?
+search-press-number = Press its number; q leaves.
+search-looking-again = Looking again every second; q leaves.
+probe-answered = tape station { $device } answered (boot { $boot }, firmware { $firmware }, protocol { $protocol })
+probe-incompatible = tape station { $device } answered in protocol { $protocol } (firmware { $firmware }), but this program speaks { $host }: update the older of the two
+probe-not-probed = not probed: another kind of device (`tapeshape ports --probe-all` tries it, `--port PATH` uses it)
+probe-silent = no answer within { $ms } ms (not a tape station, or its firmware is not running)
+probe-not-the-protocol = sent { $bytes } bytes in { $ms } ms that are not the tapeshape protocol ({ $bad } bad frames): another kind of device
+probe-no-hello = sent { $frames } protocol frames but no hello within { $ms } ms
+probe-permission-denied = permission denied: add this user to the port's group (on Debian and Ubuntu `sudo usermod -aG dialout $USER`, then log in again)
+probe-busy = busy: another program has it open (another tapeshape station?)
+probe-gone = no such port (unplugged?)
+probe-open-failed = cannot open it: { $error }
+probe-io = failed while probing: { $error }
+probe-debug-port = this is the board's debug (J-Link) port: the station talks on the nRF USB port
+
 ## New customer screen
 
 new-customer-title = New customer
