@@ -326,10 +326,19 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     );
     frame.render_widget(silhouette(m, &r.silhouettes.side, &side_title, side), side);
 
+    // The sizes box: as many rows as its lines take wrapped (a garment's
+    // line with its misfits may need two), and its borders.
+    let sizes = Paragraph::new(
+        r.sizes
+            .iter()
+            .map(|l| Line::raw(l.clone()))
+            .collect::<Vec<_>>(),
+    )
+    .wrap(Wrap { trim: true });
     let sizes_height = if r.sizes.is_empty() {
         0
     } else {
-        u16::try_from(r.sizes.len() + 2).unwrap_or(u16::MAX)
+        u16::try_from(sizes.line_count(right.width.saturating_sub(2)) + 2).unwrap_or(u16::MAX)
     };
     // The table keeps every row when it can (an operator checks each
     // measurement against its target): it takes its rows and borders
@@ -347,11 +356,8 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     ])
     .areas(right);
     if !r.sizes.is_empty() {
-        let lines: Vec<Line> = r.sizes.iter().map(|l| Line::raw(l.clone())).collect();
         frame.render_widget(
-            Paragraph::new(lines)
-                .wrap(Wrap { trim: true })
-                .block(Block::bordered().title(format!(" {} ", tr!("result-sizes")))),
+            sizes.block(Block::bordered().title(format!(" {} ", tr!("result-sizes")))),
             sizes_area,
         );
     }
