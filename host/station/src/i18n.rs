@@ -14,9 +14,8 @@
 //! message id with [`tr!`](crate::i18n::tr) (formatted now) or kept as an id
 //! with [`msg!`](crate::i18n::msg) (the key bindings' words, formatted where
 //! they are drawn, [`text`]). A message missing in German falls back to
-//! English; one missing in English shows the id itself, so that an id
-//! passed where text was expected shows as that text (the screens not yet
-//! converted pass English words as ids). The catalogue test
+//! English; one missing in English shows the id itself (never a panic
+//! or an empty line over words). The catalogue test
 //! (`tests/i18n_catalogue.rs`) checks that every language has every key,
 //! that every message formats, and that every `tr!`/`msg!` id in the
 //! sources is in the English catalogue.
