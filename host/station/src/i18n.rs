@@ -14,9 +14,8 @@
 //! message id with [`tr!`](crate::i18n::tr) (formatted now) or kept as an id
 //! with [`msg!`](crate::i18n::msg) (the key bindings' words, formatted where
 //! they are drawn, [`text`]). A message missing in German falls back to
-//! English; one missing in English shows the id itself, so that an id
-//! passed where text was expected shows as that text (the screens not yet
-//! converted pass English words as ids). The catalogue test
+//! English; one missing in English shows the id itself (never a panic
+//! or an empty line over words). The catalogue test
 //! (`tests/i18n_catalogue.rs`) checks that every language has every key,
 //! that every message formats, and that every `tr!`/`msg!` id in the
 //! sources is in the English catalogue.
@@ -265,6 +264,13 @@ pub fn text_or(id: &str, fallback: &str) -> String {
 /// built-in `quick` set, the measuring flow's), else the set's label.
 pub fn measurement_label(set: &str, name: &str, label: &str) -> String {
     text_or(&format!("measure-{set}-{name}"), label)
+}
+
+/// The instruction for measurement `name` of set `set`, whose own
+/// description is `description`: the catalogue's `measure-<set>-<name>-how`
+/// where it has one (the `quick` set), else the set's description.
+pub fn measurement_instruction(set: &str, name: &str, description: &str) -> String {
+    text_or(&format!("measure-{set}-{name}-how"), description)
 }
 
 /// Operator text of message `id` in the chosen language, formatted now:

@@ -4,8 +4,8 @@
 //! errors given them, every id the sources name (`tr!("...")`, `msg!("...")`)
 //! is in the English catalogue and every English key is named somewhere, and
 //! the keys made at run time (`measure-quick-<name>`,
-//! `set-description-<set>`) match the built-in sets, in English word for
-//! word.
+//! `measure-quick-<name>-how`, `set-description-<set>`) match the built-in
+//! sets, in English word for word.
 //!
 //! Read from the catalogues as the program embeds them
 //! ([`Lang::catalogue`]) and formatted through the program's own bundles
@@ -207,6 +207,7 @@ fn runtime_ids() -> BTreeSet<String> {
     let quick = tapeshape_measure::MeasurementSet::builtin("quick").unwrap();
     for d in &quick.definitions {
         ids.insert(format!("measure-quick-{}", d.name));
+        ids.insert(format!("measure-quick-{}-how", d.name));
     }
     for set in BUILTIN_SET_CHOICES {
         ids.insert(format!("set-description-{set}"));
@@ -250,6 +251,14 @@ fn runtime_ids_match_the_built_in_sets_word_for_word_in_english() {
         assert_eq!(i18n::format(Lang::En, &id, None).unwrap(), d.label, "{id}");
         let de = i18n::format(Lang::De, &id, None).unwrap();
         assert_ne!(de, d.label, "{id} is not German");
+        let how = format!("{id}-how");
+        assert_eq!(
+            i18n::format(Lang::En, &how, None).unwrap(),
+            d.description,
+            "{how}"
+        );
+        let de = i18n::format(Lang::De, &how, None).unwrap();
+        assert_ne!(de, d.description, "{how} is not German");
     }
     for set in BUILTIN_SET_CHOICES {
         let s = tapeshape_measure::MeasurementSet::builtin(set).unwrap();

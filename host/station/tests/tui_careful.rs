@@ -11,29 +11,6 @@ use tapeshape::store::{ReadingId, SessionId};
 use tapeshape::tui::app::{Effect, Event, ItemState, SessionView};
 use tui_fixture::*;
 
-/// Session 3 on the quick set in careful mode, nothing taken yet.
-fn open_careful(app: &mut tapeshape::tui::app::App) {
-    send(
-        app,
-        [Event::SessionReady(SessionView {
-            id: SessionId(3),
-            customer: "c-test".into(),
-            set: "quick".into(),
-            notes: Some("sex: female, age: 34".into()),
-            measurements: quick(),
-            readings: Vec::new(),
-            superseded: Vec::new(),
-            marks: Vec::new(),
-            estimate: None,
-            careful: Some(CarefulView {
-                allowed: allowed_errors("quick").unwrap(),
-                chains: Vec::new(),
-            }),
-            status: tapeshape::store::SessionStatus::Open,
-        })],
-    );
-}
-
 fn status(app: &tapeshape::tui::app::App) -> String {
     app.current_item()
         .and_then(|i| i.careful_status(app.unit))

@@ -112,6 +112,28 @@ reject-bad-field = eine Zeile, deren Feld { $field } nicht ist, was ein Maßband
 reject-negative = eine negative Länge
 reject-out-of-range = eine Länge, die es nicht messen kann ({ $value })
 
+## Finding the tape (tapeshape station without --port; the kiosk's words,
+## the line mode's stay English)
+
+search-nothing-answered = Kein Maßband hat geantwortet. Das USB-Kabel des Maßbands an diesen Rechner anschließen (beim nRF52840-DK: die nRF-USB-Buchse, nicht die Debug-Buchse).
+search-no-ports = Keine seriellen Anschlüsse vorhanden.
+search-ports-seen = Gesehene serielle Anschlüsse:
+search-several = { $n } Maßbänder haben geantwortet. Welches gehört zu dieser Station?
+search-press-number = Seine Nummer drücken; q beendet.
+search-looking-again = Sucht jede Sekunde erneut; q beendet.
+probe-answered = Maßband { $device } hat geantwortet (Start { $boot }, Firmware { $firmware }, Protokoll { $protocol })
+probe-incompatible = Maßband { $device } antwortete mit Protokoll { $protocol } (Firmware { $firmware }), dieses Programm spricht { $host }: das ältere der beiden aktualisieren
+probe-not-probed = nicht geprüft: ein anderes Gerät (`tapeshape ports --probe-all` versucht es, `--port PATH` nimmt es)
+probe-silent = keine Antwort in { $ms } ms (kein Maßband, oder seine Firmware läuft nicht)
+probe-not-the-protocol = schickte { $bytes } Bytes in { $ms } ms, die nicht das tapeshape-Protokoll sind ({ $bad } fehlerhafte Rahmen): ein anderes Gerät
+probe-no-hello = schickte { $frames } Protokollrahmen, aber keine Begrüßung in { $ms } ms
+probe-permission-denied = keine Berechtigung: diesen Benutzer zur Gruppe des Anschlusses hinzufügen (unter Debian und Ubuntu `sudo usermod -aG dialout $USER`, dann neu anmelden)
+probe-busy = belegt: ein anderes Programm hat ihn offen (eine andere tapeshape-Station?)
+probe-gone = kein solcher Anschluss (abgesteckt?)
+probe-open-failed = lässt sich nicht öffnen: { $error }
+probe-io = Fehler beim Prüfen: { $error }
+probe-debug-port = das ist der Debug-Anschluss (J-Link) der Platine: die Station spricht über den nRF-USB-Anschluss
+
 ## New customer screen
 
 new-customer-title = Neuer Kunde
@@ -180,13 +202,111 @@ resume-declined = Sitzung { $session } bleibt offen; unter h (Verlauf) zu finden
 
 measure-quick-stature = Körperhöhe
 measure-quick-chest = Brustumfang
-measure-quick-waist = Taillenumfang (Nabelhöhe)
+measure-quick-waist = Taille (Nabelhöhe)
 measure-quick-hip = Hüftumfang
-measure-quick-neck = Halsumfang (Halsansatz)
+measure-quick-neck = Halsumfang (Ansatz)
 measure-quick-inside_leg = Innenbeinlänge
 measure-quick-arm_length = Armlänge
 measure-quick-thigh = Oberschenkelumfang
 measure-quick-upper_arm = Oberarmumfang
+
+## Instructions of the quick set's measurements (the measuring screen)
+
+measure-quick-stature-how = Kunde steht aufrecht an der Wand, Fersen zusammen, Kopf gerade, ohne Schuhe. Vom Boden bis zum Scheitel.
+measure-quick-chest-how = Kunde steht, Arme locker, atmet ruhig. Band waagerecht um die Brust auf Höhe der Brustwarzen, unter den Achseln hindurch, Arme außerhalb des Bandes. Bei Frauen ist das die volle Brust.
+measure-quick-waist-how = Kunde steht aufrecht, locker, atmet ruhig. Band waagerecht um den Rumpf auf Höhe des Nabels. Das ist die Nabeltaille von ANSUR, nicht die schmalste Stelle des Rumpfes.
+measure-quick-hip-how = Kunde steht aufrecht, Fersen zusammen. Band waagerecht um die Hüften über die stärkste Stelle des Gesäßes.
+measure-quick-neck-how = Kunde steht, Kopf gerade. Band um den Halsansatz: über den Knochen hinten am Halsansatz (C7), die Halsseiten, wo sie auf die Schultern treffen, und die Kerbe oben am Brustbein.
+measure-quick-inside_leg-how = Kunde steht aufrecht, Fersen zusammen. Senkrechter Abstand vom Boden bis zum Schritt (mit einem Lineal oder dem senkrecht gehaltenen Band an der Innenseite des rechten Beins).
+measure-quick-arm_length-how = Kunde steht, rechter Arm gestreckt an der Seite. Band von der Schulterspitze (Akromion) über den äußeren Ellbogenpunkt bis zum Handgelenkknochen auf der Daumenseite (Stylion).
+measure-quick-thigh-how = Kunde steht, Füße leicht auseinander, sodass sich die Oberschenkel nicht berühren. Band um den rechten Oberschenkel direkt unter der Gesäßfalte, quer zum Oberschenkel.
+measure-quick-upper_arm-how = Kunde steht, rechter Arm locker. Band um den Oberarm auf halber Bizepshöhe (zwischen Schulterspitze und Ellbogen), quer zum Arm.
+
+## Measuring screen
+
+measuring-hold-key = Halten
+measuring-hold-help = die Haltetaste des Maßbands speichert den Messwert
+measuring-move-help = eine Messung der Liste wählen (auch k / j)
+measuring-capture = übernehmen
+measuring-capture-help = den aktuellen Wert des Maßbands speichern; bei einem markierten Messwert: ihn behalten
+measuring-retake = neu
+measuring-retake-help = die gewählte Messung neu nehmen (auch Leertaste)
+measuring-skip = auslassen
+measuring-skip-help = die aktuelle Messung auslassen
+measuring-undo = zurück
+measuring-undo-help = den letzten Schritt zurücknehmen (gespeicherte Messwerte bleiben im Verlauf)
+measuring-units = cm/in
+measuring-units-help = Längen in Zentimetern oder Zoll zeigen
+measuring-estimate = berechnen
+measuring-estimate-help = den Körper aus den genommenen Messwerten berechnen
+measuring-new-customer-help = ein neuer Kunde (diese Sitzung bleibt offen)
+measuring-sim-tape = Sim-Band
+measuring-sim-tape-help = das simulierte Maßband misst die aktuelle Messung
+measuring-sim-slip-help = ... auf der Zollskala abgelesen (ein Einheitenfehler)
+measuring-no-session = Keine Sitzung
+measuring-list-title = { $taken } von { $total } genommen
+measuring-now = Jetzt: { $name }
+measuring-tape-label = Band
+measuring-stored-label = Wert
+measuring-earlier = vorher { $values }
+measuring-careful = Genau
+measuring-flagged-what-now = Neu messen (Band halten) oder Enter, um den Wert zu behalten
+measuring-checking = Der Messwert wird geprüft...
+measuring-retake-hint = Neu messen: Band halten ersetzt den gespeicherten Wert
+measuring-hold-hint = Haltetaste des Maßbands drücken (oder Enter)
+measuring-done-title = Fertig
+measuring-all-done = Jede Messung ist genommen oder ausgelassen.
+measuring-done-estimate = den Körper berechnen
+measuring-done-retake = die gewählte neu nehmen
+measuring-flagged-others = Markiert: { $names }
+measuring-skipped-count = { $n } ausgelassen
+measuring-live-body = Körper bisher
+measuring-live-updating = rechnet...
+measuring-live-no-body = noch kein Körper
+measuring-live-readings = { $n ->
+    [one] { $n } Messwert
+   *[other] { $n } Messwerte
+  }
+# Notices of the measuring screen
+measuring-undo-skipped = { $name } ausgelassen
+measuring-undo-retake = { $name } neu gemessen
+measuring-undo-kept = markierter Wert { $name } behalten
+measuring-undo-reading = Messwert { $name }
+measuring-undone = Zurückgenommen: { $what } (gespeicherte Messwerte bleiben im Verlauf der Sitzung)
+measuring-nothing-to-undo = Nichts zurückzunehmen
+measuring-nothing-left = Nichts mehr zu messen
+measuring-skipped = { $name } ausgelassen (u nimmt es zurück)
+measuring-retaking = { $name } neu: nochmals messen und das Band halten
+measuring-all-taken-press-e = Jede Messung ist genommen: e drücken zum Berechnen
+measuring-kept-flagged = Markierten Messwert { $name } behalten
+measuring-no-tape-value = Kein Wert vom Maßband: das Band herausziehen (oder seine Haltetaste drücken)
+measuring-opened = Sitzung { $id } geöffnet mit { $n ->
+    [one] { $n } gespeicherten Messwert
+   *[other] { $n } gespeicherten Messwerten
+  }
+measuring-opened-unknown = Sitzung { $id } geöffnet mit { $n ->
+    [one] { $n } gespeicherten Messwert
+   *[other] { $n } gespeicherten Messwerten
+  } ({ $unknown } nicht in ihrem Satz: { $names })
+measuring-no-stored-estimate = Sitzung { $id } hat kein gespeichertes Ergebnis: e drücken, um es zu berechnen
+measuring-stored-not-in-set = { $value } als { $name } gespeichert (nicht in diesem Satz)
+measuring-stored = { $name } = { $value } gespeichert
+measuring-stored-careful-kept = { $name } = { $value } gespeichert; behalten { $kept }, der Median dieser Runde
+measuring-stored-careful-again = { $name } = { $value } gespeichert; { $status }: bitte nochmals messen
+measuring-stored-retake = neu; vorher { $was }
+measuring-stored-inches = Maßband zeigt Zoll
+measuring-flag-far-off = { $name }: weit daneben. Neu messen oder Enter, um ihn zu behalten
+measuring-flag-unit-slip = { $name }: Einheit verwechselt? Neu messen oder Enter, um ihn zu behalten
+measuring-all-taken = Alle Messungen genommen: e drücken, um den Körper zu berechnen
+measuring-all-taken-marked = Alle Messungen genommen ({ $skipped } ausgelassen, { $flagged } markiert): e drücken, um den Körper zu berechnen
+measuring-no-readings = Noch keine Messwerte: vor dem Berechnen mindestens eine Messung nehmen
+measuring-still-checking = Ein Messwert wird noch geprüft; gleich nochmals versuchen
+# Careful mode's status line (ISO 20685-1: each measurement twice, a third
+# when the two differ by more than the allowable error)
+careful-first = Messung 1 von { $needed }
+careful-next = Messung { $n } von { $needed } (bisher { $so_far })
+careful-third-needed = dritte Messung nötig: die zwei weichen um { $apart } ab (erlaubt { $allowed })
+careful-kept = behalten { $value } (der Median von { $readings })
 
 ## Estimating screen
 
@@ -208,6 +328,62 @@ estimating-cancel-help = die Berechnung abbrechen (die Messwerte bleiben, wie si
 estimating-back = zurück zur Messung
 estimating-back-help = zurück zur Messung
 estimating-cancelled = Berechnung abgebrochen; die Messwerte sind unverändert
+
+## Result screen
+
+result-export = exportieren
+result-export-help = den Körper und report.json exportieren (die Sitzung wird als fertig markiert)
+result-format = Format
+result-format-help = das Format des Exports: GLB, OBJ oder PLY
+result-card = Karte
+result-card-help = die Karte für den Kunden: ein PDF mit dem Körper, den Messwerten und den Größen, neben den Exporten abgelegt (die Sitzung bleibt, wie sie ist)
+result-back = zurück
+result-back-help = zurück zur Messung (auch Esc)
+result-next-customer = nächster Kunde
+result-next-customer-help = der nächste Kunde (diese Sitzung wird als fertig markiert)
+result-none = Noch kein Ergebnis: e auf dem Messbildschirm drücken
+result-front = vorn
+result-side = Seite
+result-title = Ergebnis ({ $seconds } s)
+result-col-measurement = Messung
+result-col-target = Ziel
+result-col-body = Körper
+result-col-error-mm = Δ mm
+result-col-error-in = Δ in
+result-plausibility = Plausibilität
+result-plausibility-value = Körper { $shape } (Mahalanobis { $body }), Messwerte { $readings } ({ $distance })
+plausibility-typical = typisch
+plausibility-unusual = ungewöhnlich
+plausibility-implausible = unplausibel
+result-careful = genau
+result-tem = TEM { $tem } mm ({ $percent } %) über { $pairs } Messpaare
+result-more-warnings = +{ $n } weitere
+result-exported = exportiert { $files }
+result-exported-in = in { $dir }
+result-export-hint = exportiert { $format } + report.json
+result-other-format = anderes Format
+result-card-file = Karte { $file }
+result-exporting = Wird exportiert...
+result-writing-card = Die Karte wird geschrieben...
+result-stored = Ergebnis gespeichert { $time }
+result-stored-earlier = Ergebnis gespeichert { $time }, vor der letzten Änderung der Messwerte: b, dann e berechnet neu
+result-exported-notice = { $n } Dateien nach { $dir } exportiert
+result-export-failed = Export fehlgeschlagen: { $error }
+result-card-written = Karte geschrieben: { $path }
+result-card-failed = Die Karte wurde nicht geschrieben: { $error }; die Sitzung und ihr Ergebnis bleiben erhalten
+# The Sizes box (garment names and size labels are the chart's own)
+result-sizes = Größen
+sizes-best = { $garment }: { $size } ({ $percent } %)
+sizes-or = oder { $size }
+sizes-no-size = { $garment }: keine Größe ({ $missing } unbekannt)
+sizes-none = keine Größen: { $error }
+sizes-none-report = keine Größen: das gespeicherte Ergebnis ist nicht lesbar ({ $error })
+sizes-tight = { $place } zu eng
+sizes-loose = { $place } zu weit
+sizes-too-short = { $place } zu kurz
+sizes-too-long = { $place } zu lang
+sizes-narrow = { $place } zu schmal
+sizes-wide = { $place } zu breit
 
 ## History screen
 

@@ -112,6 +112,28 @@ reject-bad-field = a line whose field { $field } is not what a tape sends
 reject-negative = a negative length
 reject-out-of-range = a length it cannot measure ({ $value })
 
+## Finding the tape (tapeshape station without --port; the kiosk's words,
+## the line mode's stay English)
+
+search-nothing-answered = No tape station answered. Plug the tape station's USB cable into this computer (on the nRF52840-DK: the nRF USB connector, not the debug one).
+search-no-ports = No serial ports are attached.
+search-ports-seen = Serial ports seen:
+search-several = { $n } tape stations answered. Which one is this station's tape?
+search-press-number = Press its number; q leaves.
+search-looking-again = Looking again every second; q leaves.
+probe-answered = tape station { $device } answered (boot { $boot }, firmware { $firmware }, protocol { $protocol })
+probe-incompatible = tape station { $device } answered in protocol { $protocol } (firmware { $firmware }), but this program speaks { $host }: update the older of the two
+probe-not-probed = not probed: another kind of device (`tapeshape ports --probe-all` tries it, `--port PATH` uses it)
+probe-silent = no answer within { $ms } ms (not a tape station, or its firmware is not running)
+probe-not-the-protocol = sent { $bytes } bytes in { $ms } ms that are not the tapeshape protocol ({ $bad } bad frames): another kind of device
+probe-no-hello = sent { $frames } protocol frames but no hello within { $ms } ms
+probe-permission-denied = permission denied: add this user to the port's group (on Debian and Ubuntu `sudo usermod -aG dialout $USER`, then log in again)
+probe-busy = busy: another program has it open (another tapeshape station?)
+probe-gone = no such port (unplugged?)
+probe-open-failed = cannot open it: { $error }
+probe-io = failed while probing: { $error }
+probe-debug-port = this is the board's debug (J-Link) port: the station talks on the nRF USB port
+
 ## New customer screen
 
 new-customer-title = New customer
@@ -185,6 +207,104 @@ measure-quick-arm_length = Arm length
 measure-quick-thigh = Thigh
 measure-quick-upper_arm = Upper arm
 
+## Instructions of the quick set's measurements (the measuring screen)
+
+measure-quick-stature-how = Customer standing erect against the wall, heels together, head level, shoes off. Floor to the top of the head.
+measure-quick-chest-how = Customer standing, arms relaxed, breathing quietly. Tape horizontal around the chest at nipple (bust point) level, passing under the armpits, arms outside the tape. For women this is the full bust.
+measure-quick-waist-how = Customer standing erect, relaxed, breathing quietly. Tape horizontal around the trunk at the level of the navel. This is the navel waist used by ANSUR, not the narrowest part of the trunk.
+measure-quick-hip-how = Customer standing erect, heels together. Tape horizontal around the hips over the most prominent point of the buttocks.
+measure-quick-neck-how = Customer standing, head level. Tape around the base of the neck: over the bone at the back of the neck base (C7), the sides of the neck where it meets the shoulders, and the notch at the top of the breastbone.
+measure-quick-inside_leg-how = Customer standing erect, heels together. Vertical distance from the floor to the crotch (use a rule or the tape held vertically on the inside of the right leg).
+measure-quick-arm_length-how = Customer standing, right arm straight at the side. Tape from the tip of the shoulder (acromion) over the outer elbow point down to the wrist bone on the thumb side (stylion).
+measure-quick-thigh-how = Customer standing, feet slightly apart so the thighs do not touch. Tape around the right thigh just below the buttock crease, perpendicular to the thigh.
+measure-quick-upper_arm-how = Customer standing, right arm relaxed. Tape around the upper arm at mid-biceps level (halfway between shoulder tip and elbow), perpendicular to the arm.
+
+## Measuring screen
+
+measuring-hold-key = hold
+measuring-hold-help = the tape's hold button stores the reading
+measuring-move-help = choose a measurement in the list (also k / j)
+measuring-capture = capture
+measuring-capture-help = store the tape's live value; on a flagged reading: keep it
+measuring-retake = retake
+measuring-retake-help = retake the selected measurement (also Space)
+measuring-skip = skip
+measuring-skip-help = skip the current measurement
+measuring-undo = undo
+measuring-undo-help = undo the last step (stored readings stay in the history)
+measuring-units = cm/in
+measuring-units-help = show lengths in centimetres or inches
+measuring-estimate = estimate
+measuring-estimate-help = estimate the body from the readings taken
+measuring-new-customer-help = a new customer (this session stays open)
+measuring-sim-tape = sim tape
+measuring-sim-tape-help = the simulated tape measures the current measurement
+measuring-sim-slip-help = ... read off the inch scale (a unit slip)
+measuring-no-session = No session
+measuring-list-title = { $taken } of { $total } taken
+measuring-now = Now: { $name }
+measuring-tape-label = Tape
+measuring-stored-label = Stored
+measuring-earlier = earlier { $values }
+measuring-careful = Careful
+measuring-flagged-what-now = Measure again (hold the tape), or Enter to keep this value
+measuring-checking = Checking the reading...
+measuring-retake-hint = Retake: hold the tape to replace the stored value
+measuring-hold-hint = Hold the tape's button to capture (or Enter)
+measuring-done-title = Done
+measuring-all-done = Every measurement is taken or skipped.
+measuring-done-estimate = estimate the body
+measuring-done-retake = retake the selected one
+measuring-flagged-others = Flagged: { $names }
+measuring-skipped-count = { $n } skipped
+measuring-live-body = body so far
+measuring-live-updating = updating...
+measuring-live-no-body = no body yet
+measuring-live-readings = { $n ->
+    [one] { $n } reading
+   *[other] { $n } readings
+  }
+# Notices of the measuring screen
+measuring-undo-skipped = skipped { $name }
+measuring-undo-retake = retake of { $name }
+measuring-undo-kept = kept flagged { $name }
+measuring-undo-reading = reading of { $name }
+measuring-undone = Undone: { $what } (stored readings stay in the session's history)
+measuring-nothing-to-undo = Nothing to undo
+measuring-nothing-left = Nothing left to measure
+measuring-skipped = Skipped { $name } (u undoes)
+measuring-retaking = Retake { $name }: measure again and hold the tape
+measuring-all-taken-press-e = Every measurement is taken: press e to estimate
+measuring-kept-flagged = Kept the flagged { $name } reading
+measuring-no-tape-value = No tape value to capture: pull the tape out (or press its hold button)
+measuring-opened = Session { $id } opened with its { $n ->
+    [one] { $n } stored reading
+   *[other] { $n } stored readings
+  }
+measuring-opened-unknown = Session { $id } opened with its { $n ->
+    [one] { $n } stored reading
+   *[other] { $n } stored readings
+  } ({ $unknown } not in its set: { $names })
+measuring-no-stored-estimate = Session { $id } has no stored estimate: press e to estimate it
+measuring-stored-not-in-set = Stored { $value } as { $name } (not in this set)
+measuring-stored = Stored { $name } = { $value }
+measuring-stored-careful-kept = Stored { $name } = { $value }; kept { $kept }, the median of this round
+measuring-stored-careful-again = Stored { $name } = { $value }; { $status }: measure it again
+measuring-stored-retake = retake; was { $was }
+measuring-stored-inches = tape showing inches
+measuring-flag-far-off = { $name }: far off. Measure again, or Enter to keep it
+measuring-flag-unit-slip = { $name }: unit slip? Measure again, or Enter to keep it
+measuring-all-taken = All measurements taken: press e to estimate the body
+measuring-all-taken-marked = All measurements taken ({ $skipped } skipped, { $flagged } flagged): press e to estimate the body
+measuring-no-readings = No readings yet: take at least one measurement before estimating
+measuring-still-checking = A reading is still being checked; try again
+# Careful mode's status line (ISO 20685-1: each measurement twice, a third
+# when the two differ by more than the allowable error)
+careful-first = reading 1 of { $needed }
+careful-next = reading { $n } of { $needed } (so far { $so_far })
+careful-third-needed = third reading needed: the two differ by { $apart } (allowed { $allowed })
+careful-kept = kept { $value } (the median of { $readings })
+
 ## Estimating screen
 
 estimating-title = Estimating the body
@@ -205,6 +325,62 @@ estimating-cancel-help = cancel the estimate (the readings stay as they are)
 estimating-back = back to measuring
 estimating-back-help = back to measuring
 estimating-cancelled = Estimate cancelled; the readings are unchanged
+
+## Result screen
+
+result-export = export
+result-export-help = export the body and report.json (the session is marked done)
+result-format = format
+result-format-help = the export's format: GLB, OBJ or PLY
+result-card = card
+result-card-help = the customer's card: a PDF with the body, the readings and the sizes, written beside the exports (the session stays as it is)
+result-back = back
+result-back-help = back to measuring (also Esc)
+result-next-customer = next customer
+result-next-customer-help = the next customer (this session is marked done)
+result-none = No estimate yet: press e on the measuring screen
+result-front = front
+result-side = side
+result-title = Estimate ({ $seconds } s)
+result-col-measurement = measurement
+result-col-target = target
+result-col-body = body
+result-col-error-mm = err mm
+result-col-error-in = err in
+result-plausibility = plausibility
+result-plausibility-value = { $shape } body (mahalanobis { $body }), readings { $readings } ({ $distance })
+plausibility-typical = typical
+plausibility-unusual = unusual
+plausibility-implausible = implausible
+result-careful = careful
+result-tem = TEM { $tem } mm ({ $percent } %) over { $pairs } measurement pairs
+result-more-warnings = +{ $n } more
+result-exported = exported { $files }
+result-exported-in = in { $dir }
+result-export-hint = exports { $format } + report.json
+result-other-format = other format
+result-card-file = card { $file }
+result-exporting = Exporting...
+result-writing-card = Writing the card...
+result-stored = Estimate stored { $time }
+result-stored-earlier = Estimate stored { $time }, before the last change to the readings: b, then e, estimates again
+result-exported-notice = Exported { $n } files to { $dir }
+result-export-failed = Export failed: { $error }
+result-card-written = Card written to { $path }
+result-card-failed = The card was not written: { $error }; the session and its estimate are kept
+# The Sizes box (garment names and size labels are the chart's own)
+result-sizes = Sizes
+sizes-best = { $garment }: { $size } ({ $percent } %)
+sizes-or = or { $size }
+sizes-no-size = { $garment }: no size ({ $missing } not known)
+sizes-none = no sizes: { $error }
+sizes-none-report = no sizes: the stored report cannot be read ({ $error })
+sizes-tight = tight at the { $place }
+sizes-loose = loose at the { $place }
+sizes-too-short = too short for the { $place }
+sizes-too-long = too long for the { $place }
+sizes-narrow = narrow at the { $place }
+sizes-wide = wide at the { $place }
 
 ## History screen
 

@@ -28,6 +28,7 @@ use anyhow::{bail, Context as _};
 use tapeshape_protocol::UnitShown;
 
 use crate::cli::{mono_wanted, reading_tolerance, Global};
+use crate::i18n::{self, tr};
 use crate::link::probe::{self, Decision, Outcome, ProbeConfig, Probed, Survey, SystemPorts};
 use crate::link::{Link, LinkConfig, LinkEvent, Naming, Unassigned};
 use crate::session::Sessions;
@@ -833,26 +834,26 @@ fn find_kiosk(config: ProbeConfig) -> anyhow::Result<Option<PathBuf>> {
             Decision::One(p) => return Ok(Some(connect_path(p))),
             Decision::Several(ps) => {
                 let mut text = format!(
-                    "tapeshape station\n\n{} tape stations answered. Which one is this \
-                     station's tape?\n",
-                    ps.len()
+                    "tapeshape station\n\n{}\n",
+                    tr!("search-several", n = ps.len())
                 );
                 for (i, p) in ps.iter().enumerate().take(9) {
                     text.push_str(&format!(
                         "\n  {}  {}\n     {}\n",
                         i + 1,
                         connect_path(p).display(),
-                        p.outcome
+                        p.outcome.words_in(i18n::lang())
                     ));
                 }
-                text.push_str("\nPress its number; q leaves.");
+                text.push_str(&format!("\n{}", tr!("search-press-number")));
                 let choices: Vec<PathBuf> = ps.iter().take(9).map(|p| connect_path(p)).collect();
                 (text, choices)
             }
             Decision::None => (
                 format!(
-                    "tapeshape station\n\n{}\n\nLooking again every second; q leaves.",
-                    survey.nothing_found()
+                    "tapeshape station\n\n{}\n\n{}",
+                    survey.nothing_found(),
+                    tr!("search-looking-again")
                 ),
                 Vec::new(),
             ),

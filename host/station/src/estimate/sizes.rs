@@ -11,8 +11,11 @@
 use tapeshape_estimator::{EstimateReport, Estimator};
 use tapeshape_measure::Class;
 use tapeshape_sizes::{
-    recommend, Chart, ChartError, DimensionKind, KnownDimension, Readings, Recommendation,
+    recommend, Chart, ChartError, DimensionKind, KnownDimension, Placement, Position, Readings,
+    Recommendation,
 };
+
+use crate::i18n::{self, tr, Lang};
 
 /// The chart's dimension names the estimator knows, with their kinds.
 pub fn known_dimensions(estimator: &Estimator) -> Vec<KnownDimension> {
@@ -108,40 +111,46 @@ pub fn body_sd_mm(
         })
 }
 
-/// One line per garment for the result screen: the best size with its
-/// probability, the other size when the customer is between two, and the
-/// primary dimensions that do not fit it ("tight at the chest"), or what is
-/// missing.
+/// One line per garment for the result screen, in the operator's language:
+/// the best size with its probability, the other size when the customer is
+/// between two, and the primary dimensions that do not fit it ("tight at
+/// the chest"), or what is missing. (The JSON report and `predict --chart`
+/// keep the recommendation's own English words, [`Placement::words`]: they
+/// are read by scripts.)
 pub fn screen_lines(rec: &Recommendation) -> Vec<String> {
     rec.garments
         .iter()
         .map(|g| match &g.best {
-            None => format!(
-                "{}: no size ({} not known)",
-                g.garment,
-                g.missing
+            None => tr!(
+                "sizes-no-size",
+                garment = g.garment.clone(),
+                missing = g
+                    .missing
                     .iter()
                     .map(|m| m.dimension.as_str())
                     .collect::<Vec<_>>()
                     .join(", ")
             ),
             Some(best) => {
-                let mut line = format!(
-                    "{}: {} ({:.0} %)",
-                    g.garment,
-                    best.label,
-                    100.0 * best.probability
+                let mut line = tr!(
+                    "sizes-best",
+                    garment = g.garment.clone(),
+                    size = best.label.clone(),
+                    percent = format!("{:.0}", 100.0 * best.probability)
                 );
                 if let Some(b) = &g.between {
-                    line.push_str(&format!(" or {}", b.other.label));
+                    line.push_str(&format!(
+                        " {}",
+                        tr!("sizes-or", size = b.other.label.clone())
+                    ));
                 }
-                let misfits: Vec<&str> = best
+                let misfits: Vec<String> = best
                     .placements
                     .iter()
                     .filter(|p| {
                         p.role == tapeshape_sizes::Role::Primary && !p.interval.contains(p.value_mm)
                     })
-                    .map(|p| p.words.as_str())
+                    .map(misfit_words)
                     .collect();
                 if !misfits.is_empty() {
                     line.push_str(&format!("; {}", misfits.join(", ")));
@@ -150,4 +159,30 @@ pub fn screen_lines(rec: &Recommendation) -> Vec<String> {
             }
         })
         .collect()
+}
+
+/// How a primary reading misses its size, in the operator's language: the
+/// same words as [`tapeshape_sizes::fit_words`] in English ("tight at the
+/// hip", "too short for the inside leg"), the catalogue's in another.
+fn misfit_words(p: &Placement) -> String {
+    // English phrases name the dimension in lower case inside the sentence
+    // (`inside leg`), as the report does; another language uses the
+    // operator's name of the measurement (the quick set's, whose names the
+    // charts use), else the same lower-case name.
+    let plain = tapeshape_sizes::words::place(&p.dimension);
+    let place = match i18n::lang() {
+        Lang::En => plain,
+        _ => i18n::measurement_label("quick", &p.dimension, &plain),
+    };
+    match (p.position, p.kind) {
+        (Position::Above { .. }, DimensionKind::Girth) => tr!("sizes-tight", place = place),
+        (Position::Above { .. }, DimensionKind::Length) => tr!("sizes-too-short", place = place),
+        (Position::Above { .. }, DimensionKind::Breadth) => tr!("sizes-narrow", place = place),
+        (Position::Below { .. }, DimensionKind::Girth) => tr!("sizes-loose", place = place),
+        (Position::Below { .. }, DimensionKind::Length) => tr!("sizes-too-long", place = place),
+        (Position::Below { .. }, DimensionKind::Breadth) => tr!("sizes-wide", place = place),
+        // Not a misfit (the caller passes only readings outside their
+        // interval): the recommendation's own words.
+        (Position::Inside { .. }, _) => p.words.clone(),
+    }
 }

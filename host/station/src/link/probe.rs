@@ -42,6 +42,8 @@ use tapeshape_protocol::{
 };
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
+use crate::i18n::{self, msg, tr, FluentArgs, Lang};
+
 use super::events::host_software_version;
 use super::{open_port, write_msg};
 
@@ -347,64 +349,72 @@ pub fn firmware_text(h: &DeviceHello) -> String {
     )
 }
 
-impl fmt::Display for Outcome {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Outcome::Answered(h) => write!(
-                f,
-                "tape station {:016x} answered (boot {}, firmware {}, protocol {}.{})",
-                h.device_id,
-                h.boot_id,
-                firmware_text(h),
-                h.protocol.major,
-                h.protocol.minor
-            ),
-            Outcome::Incompatible { device, host } => write!(
-                f,
-                "tape station {:016x} answered in protocol {}.{} (firmware {}), but this \
-                 program speaks {}.{}: update the older of the two",
-                device.device_id,
-                device.protocol.major,
-                device.protocol.minor,
-                firmware_text(device),
-                host.major,
-                host.minor
-            ),
-            Outcome::NotProbed => f.write_str(
-                "not probed: another kind of device (`tapeshape ports --probe-all` tries it, \
-                 `--port PATH` uses it)",
-            ),
-            Outcome::Silent { waited } => write!(
-                f,
-                "no answer within {} ms (not a tape station, or its firmware is not running)",
-                waited.as_millis()
-            ),
+impl Outcome {
+    /// What probing found, in words of `lang` (the kiosk's search screen
+    /// uses the chosen language; the line mode and `tapeshape ports` print
+    /// English, [`Outcome`]'s `Display`).
+    pub fn words_in(&self, lang: Lang) -> String {
+        let mut args = FluentArgs::new();
+        let id = match self {
+            Outcome::Answered(h) => {
+                args.set("device", format!("{:016x}", h.device_id));
+                args.set("boot", h.boot_id.to_string());
+                args.set("firmware", firmware_text(h));
+                args.set(
+                    "protocol",
+                    format!("{}.{}", h.protocol.major, h.protocol.minor),
+                );
+                msg!("probe-answered")
+            }
+            Outcome::Incompatible { device, host } => {
+                args.set("device", format!("{:016x}", device.device_id));
+                args.set(
+                    "protocol",
+                    format!("{}.{}", device.protocol.major, device.protocol.minor),
+                );
+                args.set("firmware", firmware_text(device));
+                args.set("host", format!("{}.{}", host.major, host.minor));
+                msg!("probe-incompatible")
+            }
+            Outcome::NotProbed => msg!("probe-not-probed"),
+            Outcome::Silent { waited } => {
+                args.set("ms", waited.as_millis().to_string());
+                msg!("probe-silent")
+            }
             Outcome::NotTheProtocol {
                 bytes,
                 bad_frames,
                 waited,
-            } => write!(
-                f,
-                "sent {bytes} bytes in {} ms that are not the tapeshape protocol \
-                 ({bad_frames} bad frames): another kind of device",
-                waited.as_millis()
-            ),
-            Outcome::NoHello { frames, waited } => write!(
-                f,
-                "sent {frames} protocol frames but no hello within {} ms",
-                waited.as_millis()
-            ),
-            Outcome::PermissionDenied => f.write_str(
-                "permission denied: add this user to the port's group (on Debian and Ubuntu \
-                 `sudo usermod -aG dialout $USER`, then log in again)",
-            ),
-            Outcome::Busy => {
-                f.write_str("busy: another program has it open (another tapeshape station?)")
+            } => {
+                args.set("bytes", bytes.to_string());
+                args.set("bad", bad_frames.to_string());
+                args.set("ms", waited.as_millis().to_string());
+                msg!("probe-not-the-protocol")
             }
-            Outcome::Gone => f.write_str("no such port (unplugged?)"),
-            Outcome::OpenFailed(e) => write!(f, "cannot open it: {e}"),
-            Outcome::Io(e) => write!(f, "failed while probing: {e}"),
-        }
+            Outcome::NoHello { frames, waited } => {
+                args.set("frames", frames.to_string());
+                args.set("ms", waited.as_millis().to_string());
+                msg!("probe-no-hello")
+            }
+            Outcome::PermissionDenied => msg!("probe-permission-denied"),
+            Outcome::Busy => msg!("probe-busy"),
+            Outcome::Gone => msg!("probe-gone"),
+            Outcome::OpenFailed(e) => {
+                args.set("error", e.clone());
+                msg!("probe-open-failed")
+            }
+            Outcome::Io(e) => {
+                args.set("error", e.clone());
+                msg!("probe-io")
+            }
+        };
+        i18n::text_in(lang, id, Some(&args))
+    }
+}
+
+impl fmt::Display for Outcome {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.words_in(Lang::En))
     }
 }
 
@@ -541,20 +551,19 @@ impl Survey {
         }
     }
 
-    /// What to tell the operator when no station answered: what to plug in,
-    /// then each port seen and why it was not taken (one per line, no
-    /// trailing newline).
+    /// What to tell the operator when no station answered, in the chosen
+    /// language (the kiosk's search screen): what to plug in, then each
+    /// port seen and why it was not taken (one per line, no trailing
+    /// newline).
     pub fn nothing_found(&self) -> String {
-        let mut text = String::from(
-            "No tape station answered. Plug the tape station's USB cable into this computer \
-             (on the nRF52840-DK: the nRF USB connector, not the debug one).",
-        );
+        let lang = i18n::lang();
+        let mut text = tr!("search-nothing-answered");
         if self.ports.is_empty() {
-            text.push_str("\nNo serial ports are attached.");
+            text.push_str(&format!("\n{}", tr!("search-no-ports")));
         } else {
-            text.push_str("\nSerial ports seen:");
+            text.push_str(&format!("\n{}", tr!("search-ports-seen")));
             for p in &self.ports {
-                text.push_str(&format!("\n  {}", describe(p)));
+                text.push_str(&format!("\n  {}", describe_in(p, lang)));
             }
         }
         text
@@ -562,8 +571,13 @@ impl Survey {
 }
 
 /// One line about a probed port: path, kind, USB identity, outcome, and a
-/// hint for the board's debug port.
+/// hint for the board's debug port (English: the line mode's `seen` lines).
 pub fn describe(p: &Probed) -> String {
+    describe_in(p, Lang::En)
+}
+
+/// [`describe`] in words of `lang`.
+pub fn describe_in(p: &Probed, lang: Lang) -> String {
     let c = &p.candidate;
     let mut line = format!("{} ({}", c.path.display(), c.kind);
     if let Some(u) = &c.usb {
@@ -572,13 +586,14 @@ pub fn describe(p: &Probed) -> String {
             line.push_str(&format!(" \"{product}\""));
         }
     }
-    line.push_str(&format!("): {}", p.outcome));
+    line.push_str(&format!("): {}", p.outcome.words_in(lang)));
     // SEGGER's vendor id: the DK's J-Link (debug) USB port, which carries
     // the tape input on the bench, not the host link.
     if c.usb.as_ref().is_some_and(|u| u.vid == 0x1366) {
-        line.push_str(
-            "; this is the board's debug (J-Link) port: the station talks on the nRF USB port",
-        );
+        line.push_str(&format!(
+            "; {}",
+            i18n::text_in(lang, msg!("probe-debug-port"), None)
+        ));
     }
     line
 }

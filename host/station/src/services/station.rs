@@ -19,6 +19,7 @@ use tapeshape_mesh::{Mesh, Topology, Vec3};
 
 use crate::check::{check_reading_with_tolerance, Flag};
 use crate::estimate::{self, ExportReport, MeshFormat, SessionInfo};
+use crate::i18n::tr;
 use crate::services::{
     Cancel, CheckOutcome, CheckRequest, EstimateEvent, EstimateRequest, EstimateSummary,
     ProgressSink, ResultRow, ServiceError, Services, Silhouettes, Stage,
@@ -463,26 +464,39 @@ pub fn summarise(
             serde_json::from_value::<tapeshape_estimator::EstimateReport>(report.estimator.clone()),
         ) {
             (Ok(e), Ok(r)) => estimate::sizes::screen_lines(&estimate::sizes::sizes(e, &r, chart)),
-            (Err(err), _) => vec![format!("no sizes: {err}")],
-            (_, Err(err)) => vec![format!(
-                "no sizes: the stored report cannot be read ({err})"
-            )],
+            (Err(err), _) => vec![tr!("sizes-none", error = err.to_string())],
+            (_, Err(err)) => vec![tr!("sizes-none-report", error = err.to_string())],
         },
     };
     let pl = &report.plausibility;
     Ok(EstimateSummary {
         session: stored.session_id,
         rows,
-        plausibility: format!(
-            "{} body (Mahalanobis {:.1}), readings {} ({:.1})",
-            pl.shape, pl.shape_mahalanobis, pl.readings, pl.readings_mahalanobis
-        )
-        .to_lowercase(),
+        plausibility: tr!(
+            "result-plausibility-value",
+            shape = plausibility_word(&pl.shape),
+            body = format!("{:.1}", pl.shape_mahalanobis),
+            readings = plausibility_word(&pl.readings),
+            distance = format!("{:.1}", pl.readings_mahalanobis)
+        ),
         warnings: report.warnings,
         silhouettes: silhouettes(&stored.vertices),
         seconds: stored.seconds,
         sizes,
     })
+}
+
+/// A plausibility label of the report (`typical`, `unusual`,
+/// `implausible`, as the report writes them) in the operator's language; a
+/// word the catalogue does not know as the report has it, in lower case.
+fn plausibility_word(label: &str) -> String {
+    let word = label.to_lowercase();
+    match word.as_str() {
+        "typical" => tr!("plausibility-typical"),
+        "unusual" => tr!("plausibility-unusual"),
+        "implausible" => tr!("plausibility-implausible"),
+        _ => word,
+    }
 }
 
 /// Front (x, z) and side (y, z) silhouettes of a body (vertices in metres,

@@ -6,8 +6,12 @@
 
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use tapeshape::link::{Disconnect, LinkCounters, LinkEvent};
-use tapeshape::services::CheckOutcome;
-use tapeshape::store::{ReadingId, ReadingSource, SessionId, StoredReading, TapeOrigin};
+use tapeshape::services::{CheckOutcome, EstimateEvent, EstimateSummary, ResultRow, Silhouettes};
+use tapeshape::session::{allowed_errors, CarefulView};
+use tapeshape::store::{
+    ReadingId, ReadingSource, Session, SessionId, SessionStatus, SessionSummary, StoredReading,
+    TapeOrigin,
+};
 use tapeshape::tui::app::{App, AppConfig, Effect, Event, MeasurementInfo, SessionView};
 use tapeshape::tui::update;
 use tapeshape_protocol::{DeviceHello, Live, SoftwareVersion, UnitShown, PROTOCOL_VERSION};
@@ -202,4 +206,134 @@ pub fn naming(effects: &[Effect]) -> Option<Option<String>> {
         Effect::SetNaming(n) => Some(n.clone()),
         _ => None,
     })
+}
+
+// The apps the snapshot tests (English `tui_screens`, German
+// `tui_german`) draw.
+
+/// A session with stature and chest taken and waist current.
+pub fn measuring() -> App {
+    let mut a = app(false);
+    connect(&mut a);
+    open_session(&mut a, &[]);
+    take(&mut a, 0, "stature", 17_650);
+    take(&mut a, 1, "chest", 9_820);
+    live(&mut a, 8_374);
+    a
+}
+
+/// Session 3 on the quick set in careful mode, nothing taken yet.
+pub fn open_careful(app: &mut App) {
+    send(
+        app,
+        [Event::SessionReady(SessionView {
+            id: SessionId(3),
+            customer: "c-test".into(),
+            set: "quick".into(),
+            notes: Some("sex: female, age: 34".into()),
+            measurements: quick(),
+            readings: Vec::new(),
+            superseded: Vec::new(),
+            marks: Vec::new(),
+            estimate: None,
+            careful: Some(CarefulView {
+                allowed: allowed_errors("quick").unwrap(),
+                chains: Vec::new(),
+            }),
+            status: SessionStatus::Open,
+        })],
+    );
+}
+
+/// A body-like figure in metres (station frame): head, torso, arms, legs
+/// as filled ellipses, sampled on a 1 cm grid. A rendering fixture, not an
+/// estimate.
+pub fn figure() -> Silhouettes {
+    let parts_front: [(f64, f64, f64, f64); 6] = [
+        (0.0, 1.62, 0.08, 0.11),   // head
+        (0.0, 1.22, 0.17, 0.30),   // torso
+        (-0.24, 1.18, 0.04, 0.28), // right arm
+        (0.24, 1.18, 0.04, 0.28),  // left arm
+        (-0.09, 0.45, 0.07, 0.45), // right leg
+        (0.09, 0.45, 0.07, 0.45),  // left leg
+    ];
+    let parts_side: [(f64, f64, f64, f64); 3] = [
+        (0.01, 1.62, 0.10, 0.11),
+        (0.0, 1.22, 0.12, 0.30),
+        (0.0, 0.45, 0.08, 0.45),
+    ];
+    let sample = |parts: &[(f64, f64, f64, f64)]| {
+        let mut pts = Vec::new();
+        for i in -40..=40 {
+            for k in 0..=180 {
+                let (x, z) = (f64::from(i) * 0.01, f64::from(k) * 0.01);
+                if parts.iter().any(|(cx, cz, rx, rz)| {
+                    ((x - cx) / rx).powi(2) + ((z - cz) / rz).powi(2) <= 1.0
+                }) {
+                    pts.push((x, z));
+                }
+            }
+        }
+        pts
+    };
+    Silhouettes {
+        front: sample(&parts_front),
+        side: sample(&parts_side),
+    }
+}
+
+/// [`measuring`] estimated: the result screen of stature and chest.
+pub fn result_app() -> App {
+    let mut a = measuring();
+    send(&mut a, [ch('e')]);
+    send(
+        &mut a,
+        [Event::Estimate(EstimateEvent::Done(Box::new(
+            EstimateSummary {
+                session: SessionId(3),
+                rows: vec![
+                    ResultRow {
+                        name: "stature".into(),
+                        target_mm: 1765.0,
+                        achieved_mm: 1764.6,
+                    },
+                    ResultRow {
+                        name: "chest".into(),
+                        target_mm: 982.0,
+                        achieved_mm: 979.1,
+                    },
+                ],
+                plausibility: "typical body (mahalanobis 6.5), readings typical (1.2)".into(),
+                warnings: vec!["'chest' could not be fitted within 2 mm (error 2.9 mm)".into()],
+                silhouettes: figure(),
+                seconds: 0.41,
+                sizes: Vec::new(),
+            },
+        )))],
+    );
+    a
+}
+
+/// Three stored sessions for the history: 3 open, 2 done, 1 abandoned.
+pub fn summaries() -> Vec<SessionSummary> {
+    let s = |id: i64, customer: &str, status, n, minute: i64| SessionSummary {
+        session: Session {
+            id: SessionId(id),
+            customer_id: customer.into(),
+            created_at_ms: 1_790_000_000_000 + minute * 60_000,
+            updated_at_ms: 1_790_000_000_000 + minute * 60_000 + 180_000,
+            status,
+            measurement_set: Some("quick".into()),
+            notes: None,
+            consent: None,
+        },
+        current_readings: n,
+        total_readings: n + 1,
+        estimate_made_at_ms: None,
+    };
+    vec![
+        s(3, "c-test", SessionStatus::Open, 2, 30),
+        s(2, "c-8f3k2a", SessionStatus::Done, 9, 20),
+        s(1, "c-0q9z7m", SessionStatus::Abandoned, 4, 10),
+    ]
 }

@@ -17,6 +17,7 @@ use ratatui::Frame;
 use tapeshape_estimator::Unit;
 
 use crate::estimate::MeshFormat;
+use crate::i18n::{msg, tr};
 use crate::services::EstimateSummary;
 use crate::session::EstimateInfo;
 use crate::store::SessionStatus;
@@ -74,45 +75,39 @@ fn bindings() -> Vec<Binding<Action>> {
         Binding::new(
             &[ch('x')],
             "x",
-            "export",
-            "export the body and report.json (the session is marked done)",
+            msg!("result-export"),
+            msg!("result-export-help"),
             Action::Export,
         ),
         Binding::new(
             &[ch('f')],
             "f",
-            "format",
-            "the export's format: GLB, OBJ or PLY",
+            msg!("result-format"),
+            msg!("result-format-help"),
             Action::Format,
         ),
         Binding::new(
             &[ch('p')],
             "p",
-            "card",
-            "the customer's card: a PDF with the body, the readings and the sizes, \
-             written beside the exports (the session stays as it is)",
+            msg!("result-card"),
+            msg!("result-card-help"),
             Action::Card,
         ),
         Binding::new(
             &[ch('b'), code(KeyCode::Esc)],
             "b",
-            "back",
-            "back to measuring (also Esc)",
+            msg!("result-back"),
+            msg!("result-back-help"),
             Action::Back,
         ),
         Binding::new(
             &[ch('n')],
             "n",
-            "next customer",
-            "the next customer (this session is marked done)",
+            msg!("result-next-customer"),
+            msg!("result-next-customer-help"),
             Action::NextCustomer,
         ),
-        Binding::help_only(
-            &[ch('i')],
-            "i",
-            "show lengths in centimetres or inches",
-            Action::Units,
-        ),
+        Binding::help_only(&[ch('i')], "i", msg!("measuring-units-help"), Action::Units),
     ]
 }
 
@@ -136,7 +131,7 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                     session: s.id,
                     format: app.result.format,
                 });
-                app.note(Level::Info, "Exporting...");
+                app.note(Level::Info, tr!("result-exporting"));
             }
         }
         Action::Card => {
@@ -145,7 +140,7 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                     session: s.id,
                     unit: app.unit,
                 });
-                app.note(Level::Info, "Writing the card...");
+                app.note(Level::Info, tr!("result-writing-card"));
             }
         }
         Action::Format => {
@@ -194,14 +189,8 @@ pub fn on_loaded(app: &mut App, r: Result<EstimateSummary, String>, fx: &mut Vec
                 .stored
                 .map(|e| (crate::text::format_time_ms(e.made_at_ms), e.current));
             match when {
-                Some((t, true)) => app.note(Level::Info, format!("Estimate stored {t}")),
-                Some((t, false)) => app.note(
-                    Level::Warn,
-                    format!(
-                        "Estimate stored {t}, before the last change to the readings: \
-                         b, then e, estimates again"
-                    ),
-                ),
+                Some((t, true)) => app.note(Level::Info, tr!("result-stored", time = t)),
+                Some((t, false)) => app.note(Level::Warn, tr!("result-stored-earlier", time = t)),
                 None => app.notice = None,
             }
             if app.after_open.take() == Some(AfterOpen::Export) {
@@ -224,10 +213,10 @@ pub fn on_exported(app: &mut App, r: Result<Vec<PathBuf>, String>, fx: &mut Vec<
         Ok(files) => {
             app.note(
                 Level::Info,
-                format!(
-                    "Exported {} files to {}",
-                    files.len(),
-                    files
+                tr!(
+                    "result-exported-notice",
+                    n = files.len(),
+                    dir = files
                         .first()
                         .and_then(|f| f.parent())
                         .map(|p| p.display().to_string())
@@ -240,7 +229,7 @@ pub fn on_exported(app: &mut App, r: Result<Vec<PathBuf>, String>, fx: &mut Vec<
                 fx.push(Effect::SetStatus(s.id, SessionStatus::Done));
             }
         }
-        Err(e) => app.note(Level::Error, format!("Export failed: {e}")),
+        Err(e) => app.note(Level::Error, tr!("result-export-failed", error = e)),
     }
 }
 
@@ -250,13 +239,13 @@ pub fn on_exported(app: &mut App, r: Result<Vec<PathBuf>, String>, fx: &mut Vec<
 pub fn on_card(app: &mut App, r: Result<PathBuf, String>) {
     match r {
         Ok(path) => {
-            app.note(Level::Info, format!("Card written to {}", path.display()));
+            app.note(
+                Level::Info,
+                tr!("result-card-written", path = path.display().to_string()),
+            );
             app.result.card = Some(path);
         }
-        Err(e) => app.note(
-            Level::Error,
-            format!("The card was not written: {e}; the session and its estimate are kept"),
-        ),
+        Err(e) => app.note(Level::Error, tr!("result-card-failed", error = e)),
     }
 }
 
@@ -318,10 +307,7 @@ pub(crate) fn silhouette<'a>(
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let m = app.mono;
     let Some(r) = &app.result.summary else {
-        frame.render_widget(
-            Paragraph::new("No estimate yet: press e on the measuring screen"),
-            area,
-        );
+        frame.render_widget(Paragraph::new(tr!("result-none")), area);
         return;
     };
     let [front, side, right] = Layout::horizontal([
@@ -330,13 +316,29 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         Constraint::Min(30),
     ])
     .areas(area);
-    frame.render_widget(silhouette(m, &r.silhouettes.front, " front ", front), front);
-    frame.render_widget(silhouette(m, &r.silhouettes.side, " side ", side), side);
+    let (front_title, side_title) = (
+        format!(" {} ", tr!("result-front")),
+        format!(" {} ", tr!("result-side")),
+    );
+    frame.render_widget(
+        silhouette(m, &r.silhouettes.front, &front_title, front),
+        front,
+    );
+    frame.render_widget(silhouette(m, &r.silhouettes.side, &side_title, side), side);
 
+    // The sizes box: as many rows as its lines take wrapped (a garment's
+    // line with its misfits may need two), and its borders.
+    let sizes = Paragraph::new(
+        r.sizes
+            .iter()
+            .map(|l| Line::raw(l.clone()))
+            .collect::<Vec<_>>(),
+    )
+    .wrap(Wrap { trim: true });
     let sizes_height = if r.sizes.is_empty() {
         0
     } else {
-        u16::try_from(r.sizes.len() + 2).unwrap_or(u16::MAX)
+        u16::try_from(sizes.line_count(right.width.saturating_sub(2)) + 2).unwrap_or(u16::MAX)
     };
     // The table keeps every row when it can (an operator checks each
     // measurement against its target): it takes its rows and borders
@@ -354,11 +356,8 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     ])
     .areas(right);
     if !r.sizes.is_empty() {
-        let lines: Vec<Line> = r.sizes.iter().map(|l| Line::raw(l.clone())).collect();
         frame.render_widget(
-            Paragraph::new(lines)
-                .wrap(Wrap { trim: true })
-                .block(Block::bordered().title(" Sizes ")),
+            sizes.block(Block::bordered().title(format!(" {} ", tr!("result-sizes")))),
             sizes_area,
         );
     }
@@ -403,19 +402,26 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         )
         .header(
             Row::new(vec![
-                "measurement",
-                "target",
-                "body",
-                if inches { "err in" } else { "err mm" },
+                tr!("result-col-measurement"),
+                tr!("result-col-target"),
+                tr!("result-col-body"),
+                if inches {
+                    tr!("result-col-error-in")
+                } else {
+                    tr!("result-col-error-mm")
+                },
             ])
             .style(st(m, Role::Dim)),
         )
         .column_spacing(1)
-        .block(Block::bordered().title(format!(" Estimate ({:.1} s) ", r.seconds))),
+        .block(Block::bordered().title(format!(
+            " {} ",
+            tr!("result-title", seconds = format!("{:.1}", r.seconds))
+        ))),
         table_area,
     );
     let mut lines = vec![Line::from(vec![
-        Span::styled("plausibility ", st(m, Role::Dim)),
+        Span::styled(format!("{} ", tr!("result-plausibility")), st(m, Role::Dim)),
         Span::raw(r.plausibility.clone()),
     ])];
     // Careful mode: how repeatable the measuring was (ISO 20685-1 TEM).
@@ -426,10 +432,12 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         .and_then(|s| s.careful_tem())
     {
         lines.push(Line::from(vec![
-            Span::styled("careful ", st(m, Role::Dim)),
-            Span::raw(format!(
-                "TEM {:.1} mm ({:.2} %) over {} measurement pairs",
-                t.tem_mm, t.relative_percent, t.pairs
+            Span::styled(format!("{} ", tr!("result-careful")), st(m, Role::Dim)),
+            Span::raw(tr!(
+                "result-tem",
+                tem = format!("{:.1}", t.tem_mm),
+                percent = format!("{:.2}", t.relative_percent),
+                pairs = t.pairs
             )),
         ]));
     }
@@ -438,7 +446,10 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             format!(
                 "! {w}{}",
                 if r.warnings.len() > 1 {
-                    format!(" (+{} more)", r.warnings.len() - 1)
+                    format!(
+                        " ({})",
+                        tr!("result-more-warnings", n = r.warnings.len() - 1)
+                    )
                 } else {
                     String::new()
                 }
@@ -453,12 +464,12 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
                 .collect();
             lines.push(Line::styled(
-                format!("exported {}", names.join(", ")),
+                tr!("result-exported", files = names.join(", ")),
                 st(m, Role::Ok),
             ));
             if let Some(dir) = files.first().and_then(|f| f.parent()) {
                 lines.push(Line::styled(
-                    format!("in {}", dir.display()),
+                    tr!("result-exported-in", dir = dir.display().to_string()),
                     st(m, Role::Dim),
                 ));
             }
@@ -466,16 +477,22 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         None => lines.push(Line::from(vec![
             Span::styled("x", st(m, Role::Key)),
             Span::raw(format!(
-                " exports {} + report.json  ",
-                app.result.format.ext().to_uppercase()
+                " {}  ",
+                tr!(
+                    "result-export-hint",
+                    format = app.result.format.ext().to_uppercase()
+                )
             )),
             Span::styled("f", st(m, Role::Key)),
-            Span::raw(" other format"),
+            Span::raw(format!(" {}", tr!("result-other-format"))),
         ])),
     }
     if let Some(name) = app.result.card.as_ref().and_then(|c| c.file_name()) {
         lines.push(Line::styled(
-            format!("card {}", name.to_string_lossy()),
+            tr!(
+                "result-card-file",
+                file = name.to_string_lossy().into_owned()
+            ),
             st(m, Role::Ok),
         ));
     }

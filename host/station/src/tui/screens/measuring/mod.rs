@@ -11,6 +11,7 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, List, ListItem, ListState, Paragraph, Wrap};
 use ratatui::Frame;
 
+use crate::i18n::{msg, tr};
 use crate::store::Mark;
 use crate::tui::app::{action, toggled, App, Effect, Global, Level, Screen, ShowLength as _};
 use crate::tui::keys::{ch, code, hints as hints_of, Binding, Hint};
@@ -49,62 +50,62 @@ fn bindings(app: &App) -> Vec<Binding<Action>> {
     let mut b = vec![
         Binding::help_only(
             &[],
-            "hold",
-            "the tape's hold button stores the reading",
+            msg!("measuring-hold-key"),
+            msg!("measuring-hold-help"),
             Action::Hold,
         ),
         Binding::help_only(
             &[code(KeyCode::Up), ch('k'), code(KeyCode::Down), ch('j')],
-            "up/down",
-            "choose a measurement in the list (also k / j)",
+            msg!("key-up-down"),
+            msg!("measuring-move-help"),
             Action::Move,
         ),
         Binding::new(
             &[code(KeyCode::Enter)],
-            "Enter",
-            "capture",
-            "store the tape's live value; on a flagged reading: keep it",
+            msg!("key-enter"),
+            msg!("measuring-capture"),
+            msg!("measuring-capture-help"),
             Action::Capture,
         ),
         Binding::new(
             &[ch('r'), ch(' ')],
             "r",
-            "retake",
-            "retake the selected measurement (also Space)",
+            msg!("measuring-retake"),
+            msg!("measuring-retake-help"),
             Action::Retake,
         ),
         Binding::new(
             &[ch('s')],
             "s",
-            "skip",
-            "skip the current measurement",
+            msg!("measuring-skip"),
+            msg!("measuring-skip-help"),
             Action::Skip,
         ),
         Binding::new(
             &[ch('u')],
             "u",
-            "undo",
-            "undo the last step (stored readings stay in the history)",
+            msg!("measuring-undo"),
+            msg!("measuring-undo-help"),
             Action::Undo,
         ),
         Binding::new(
             &[ch('i')],
             "i",
-            "cm/in",
-            "show lengths in centimetres or inches",
+            msg!("measuring-units"),
+            msg!("measuring-units-help"),
             Action::Units,
         ),
         Binding::new(
             &[ch('e')],
             "e",
-            "estimate",
-            "estimate the body from the readings taken",
+            msg!("measuring-estimate"),
+            msg!("measuring-estimate-help"),
             Action::Estimate,
         ),
         Binding::help_only(
             &[ch('n')],
             "n",
-            "a new customer (this session stays open)",
+            msg!("measuring-new-customer-help"),
             Action::NewCustomer,
         ),
     ];
@@ -112,14 +113,14 @@ fn bindings(app: &App) -> Vec<Binding<Action>> {
         b.push(Binding::new(
             &[ch('m')],
             "m",
-            "sim tape",
-            "the simulated tape measures the current measurement",
+            msg!("measuring-sim-tape"),
+            msg!("measuring-sim-tape-help"),
             Action::SimTape { slip: false },
         ));
         b.push(Binding::help_only(
             &[ch('M')],
             "M",
-            "... read off the inch scale (a unit slip)",
+            msg!("measuring-sim-slip-help"),
             Action::SimTape { slip: true },
         ));
     }
@@ -154,7 +155,7 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
             let before = s.items[c].clone();
             let name = before.info.name.clone();
             s.undo.push(UndoEntry {
-                what: format!("skipped {}", before.info.label),
+                what: tr!("measuring-undo-skipped", name = before.info.label.clone()),
                 reverts: vec![StoreRevert::Mark(name.clone(), stored_mark(&before))],
                 item: Some((c, before)),
                 current: s.current,
@@ -168,7 +169,7 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
             let label = s.items[c].info.label.clone();
             advance(app);
             if app.current_item().is_some() {
-                app.note(Level::Info, format!("Skipped {label} (u undoes)"));
+                app.note(Level::Info, tr!("measuring-skipped", name = label));
             }
         }
         Action::Retake => {
@@ -182,7 +183,7 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                 session::clear_mark(s.id, &before, Mark::Skipped, &mut reverts, fx);
             }
             s.undo.push(UndoEntry {
-                what: format!("retake of {}", before.info.label),
+                what: tr!("measuring-undo-retake", name = before.info.label.clone()),
                 reverts,
                 item: Some((i, before)),
                 current: s.current,
@@ -192,10 +193,7 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
             }
             s.current = Some(i);
             let label = s.items[i].info.label.clone();
-            app.note(
-                Level::Info,
-                format!("Retake {label}: measure again and hold the tape"),
-            );
+            app.note(Level::Info, tr!("measuring-retaking", name = label));
         }
         Action::Undo => match s.undo.pop() {
             Some(entry) => {
@@ -216,15 +214,9 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                 if let Some(c) = s.current {
                     s.selected = c;
                 }
-                app.note(
-                    Level::Info,
-                    format!(
-                        "Undone: {} (stored readings stay in the session's history)",
-                        entry.what
-                    ),
-                );
+                app.note(Level::Info, tr!("measuring-undone", what = entry.what));
             }
-            None => app.note(Level::Info, "Nothing to undo"),
+            None => app.note(Level::Info, tr!("measuring-nothing-to-undo")),
         },
         Action::Units => app.unit = toggled(app.unit),
         Action::Estimate => start_estimate(app, fx, false),
@@ -234,7 +226,7 @@ pub fn on_key(app: &mut App, key: KeyEvent, fx: &mut Vec<Effect>) {
                 name: s.items[c].info.name.clone(),
                 slip,
             }),
-            None => app.note(Level::Info, "Nothing left to measure"),
+            None => app.note(Level::Info, tr!("measuring-nothing-left")),
         },
     }
 }
@@ -250,10 +242,7 @@ fn capture(app: &mut App, fx: &mut Vec<Effect>) {
         return;
     };
     let Some(c) = s.current else {
-        app.note(
-            Level::Info,
-            "Every measurement is taken: press e to estimate",
-        );
+        app.note(Level::Info, tr!("measuring-all-taken-press-e"));
         return;
     };
     let item = &s.items[c];
@@ -262,7 +251,7 @@ fn capture(app: &mut App, fx: &mut Vec<Effect>) {
             let before = item.clone();
             let name = item.info.name.clone();
             s.undo.push(UndoEntry {
-                what: format!("kept flagged {}", item.info.label),
+                what: tr!("measuring-undo-kept", name = item.info.label.clone()),
                 reverts: vec![StoreRevert::Mark(name.clone(), stored_mark(&before))],
                 item: Some((c, before)),
                 current: s.current,
@@ -278,10 +267,10 @@ fn capture(app: &mut App, fx: &mut Vec<Effect>) {
             let label = item.info.label.clone();
             advance(app);
             if app.notice.is_none() || app.current_item().is_some() {
-                app.note(Level::Warn, format!("Kept the flagged {label} reading"));
+                app.note(Level::Warn, tr!("measuring-kept-flagged", name = label));
             }
         }
-        ItemState::Checking => app.note(Level::Info, "Checking the reading..."),
+        ItemState::Checking => app.note(Level::Info, tr!("measuring-checking")),
         _ => match app.device.live {
             Some(live) if app.device.connected() && live.value_tenth_mm > 0 => {
                 fx.push(Effect::CaptureLive {
@@ -291,10 +280,7 @@ fn capture(app: &mut App, fx: &mut Vec<Effect>) {
                     unit_shown: live.unit_shown,
                 });
             }
-            _ => app.note(
-                Level::Warn,
-                "No tape value to capture: pull the tape out (or press its hold button)",
-            ),
+            _ => app.note(Level::Warn, tr!("measuring-no-tape-value")),
         },
     }
 }
@@ -315,9 +301,11 @@ fn draw_live(app: &App, frame: &mut Frame, area: Rect) {
     let live = &app.live;
     // What the body is of: the side view's title, or the empty frame's.
     let status = match (&live.shown, live.running, &live.error) {
-        (_, true, _) => " updating... ".to_string(),
-        (_, false, Some(_)) => " no body yet ".to_string(),
-        (Some((r, _, _)), false, None) => format!(" {} readings ", r.len()),
+        (_, true, _) => format!(" {} ", tr!("measuring-live-updating")),
+        (_, false, Some(_)) => format!(" {} ", tr!("measuring-live-no-body")),
+        (Some((r, _, _)), false, None) => {
+            format!(" {} ", tr!("measuring-live-readings", n = r.len()))
+        }
         (None, false, None) => String::new(),
     };
     match &live.shown {
@@ -328,7 +316,7 @@ fn draw_live(app: &App, frame: &mut Frame, area: Rect) {
                 crate::tui::screens::result::silhouette(
                     m,
                     &summary.silhouettes.front,
-                    " body so far ",
+                    &format!(" {} ", tr!("measuring-live-body")),
                     front,
                 ),
                 front,
@@ -345,7 +333,7 @@ fn draw_live(app: &App, frame: &mut Frame, area: Rect) {
         }
         None => frame.render_widget(
             Block::bordered()
-                .title(format!(" body so far:{status}"))
+                .title(format!(" {}:{status}", tr!("measuring-live-body")))
                 .border_style(st(m, Role::Dim)),
             area,
         ),
@@ -356,7 +344,7 @@ fn draw_live(app: &App, frame: &mut Frame, area: Rect) {
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let m = app.mono;
     let Some(s) = &app.session else {
-        frame.render_widget(Paragraph::new("No session"), area);
+        frame.render_widget(Paragraph::new(tr!("measuring-no-session")), area);
         return;
     };
     let [list_area, detail] =
@@ -406,9 +394,12 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     frame.render_stateful_widget(
         List::new(items)
             .block(Block::bordered().title(format!(
-                " {} of {} taken ",
-                s.count(ItemState::Done) + s.count(ItemState::Flagged),
-                s.items.len()
+                " {} ",
+                tr!(
+                    "measuring-list-title",
+                    taken = s.count(ItemState::Done) + s.count(ItemState::Flagged),
+                    total = s.items.len()
+                )
             )))
             .highlight_style(st(m, Role::Focus)),
         list_area,
@@ -420,32 +411,32 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let now = s.current.and_then(|c| s.items.get(c));
     match now {
         Some(it) => {
-            title = format!(" Now: {} ", it.info.label);
+            title = format!(" {} ", tr!("measuring-now", name = it.info.label.clone()));
             // The instruction and the tape value come first: drawn by
             // `draw_guided` with the pictogram, or put before these lines
             // when the screen has no room for it.
             // Careful mode: which reading of how many is expected.
             if let Some(status) = it.careful_status(app.unit) {
-                let role = if status.starts_with("third") {
+                let role = if it.careful_third_needed() {
                     Role::Warn
                 } else {
                     Role::Big
                 };
                 lines.push(Line::from(vec![
-                    Span::styled("Careful ", st(m, Role::Dim)),
+                    Span::styled(label(tr!("measuring-careful")), st(m, Role::Dim)),
                     Span::styled(status, st(m, role)),
                 ]));
             }
             if let Some(v) = it.value {
                 let mut spans = vec![
-                    Span::styled("Stored  ", st(m, Role::Dim)),
+                    Span::styled(label(tr!("measuring-stored-label")), st(m, Role::Dim)),
                     Span::raw(app.unit.format(v)),
                 ];
                 if !it.previous.is_empty() {
                     let prev: Vec<String> =
                         it.previous.iter().map(|p| app.unit.format(*p)).collect();
                     spans.push(Span::styled(
-                        format!("  earlier {}", prev.join(", ")),
+                        format!("  {}", tr!("measuring-earlier", values = prev.join(", "))),
                         st(m, Role::Dim),
                     ));
                 }
@@ -458,32 +449,25 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                         lines.push(Line::styled(format!("! {msg}"), st(m, Role::Warn)));
                     }
                     lines.push(Line::styled(
-                        "Measure again (hold the tape), or Enter to keep this value",
+                        tr!("measuring-flagged-what-now"),
                         st(m, Role::Bad),
                     ));
                 }
                 ItemState::Checking => {
-                    lines.push(Line::styled("Checking the reading...", st(m, Role::Dim)))
+                    lines.push(Line::styled(tr!("measuring-checking"), st(m, Role::Dim)))
                 }
-                _ if it.value.is_some() => lines.push(Line::styled(
-                    "Retake: hold the tape to replace the stored value",
-                    st(m, Role::Dim),
-                )),
-                _ => lines.push(Line::styled(
-                    "Hold the tape's button to capture (or Enter)",
-                    st(m, Role::Dim),
-                )),
+                _ if it.value.is_some() => {
+                    lines.push(Line::styled(tr!("measuring-retake-hint"), st(m, Role::Dim)))
+                }
+                _ => lines.push(Line::styled(tr!("measuring-hold-hint"), st(m, Role::Dim))),
             }
         }
         None => {
-            title = " Done ".to_string();
-            lines.push(Line::styled(
-                "Every measurement is taken or skipped.",
-                st(m, Role::Big),
-            ));
+            title = format!(" {} ", tr!("measuring-done-title"));
+            lines.push(Line::styled(tr!("measuring-all-done"), st(m, Role::Big)));
             lines.push(Line::raw(""));
-            lines.push(hint_line(m, &[hint("e", "estimate the body")]));
-            lines.push(hint_line(m, &[hint("r", "retake the selected one")]));
+            lines.push(hint_line(m, &[hint("e", msg!("measuring-done-estimate"))]));
+            lines.push(hint_line(m, &[hint("r", msg!("measuring-done-retake"))]));
         }
     }
     // Flags of other measurements, so none is forgotten.
@@ -497,13 +481,16 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     if !other_flags.is_empty() {
         lines.push(Line::raw(""));
         lines.push(Line::styled(
-            format!("Flagged: {}", other_flags.join(", ")),
+            tr!("measuring-flagged-others", names = other_flags.join(", ")),
             st(m, Role::Warn),
         ));
     }
     let skipped = s.count(ItemState::Skipped);
     if skipped > 0 {
-        lines.push(Line::styled(format!("{skipped} skipped"), st(m, Role::Dim)));
+        lines.push(Line::styled(
+            tr!("measuring-skipped-count", n = skipped),
+            st(m, Role::Dim),
+        ));
     }
     let block = Block::bordered().title(title);
     let inner = block.inner(detail);
@@ -516,7 +503,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                     Line::styled(it.info.description.clone(), st(m, Role::Big)),
                     Line::raw(""),
                     Line::from(vec![
-                        Span::styled("Tape    ", st(m, Role::Dim)),
+                        Span::styled(label(tr!("measuring-tape-label")), st(m, Role::Dim)),
                         Span::styled(tape_value(app), st(m, Role::Big)),
                     ]),
                 ];
@@ -525,6 +512,13 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             frame.render_widget(Paragraph::new(lines).wrap(Wrap { trim: true }), inner);
         }
     }
+}
+
+/// A dimmed label before a value on the instruction's lines ("Tape",
+/// "Stored", "Careful"): padded to 8 columns so that the values line up
+/// (a longer word keeps one blank after it).
+fn label(word: String) -> String {
+    format!("{word:<7} ")
 }
 
 /// The tape's live value with its unit ("83.7 cm"), or "--" without one.
@@ -652,7 +646,7 @@ fn draw_guided(
                 head.push(Line::raw(""));
             }
             None => head.push(Line::from(vec![
-                Span::styled("Tape    ", st(m, Role::Dim)),
+                Span::styled(label(tr!("measuring-tape-label")), st(m, Role::Dim)),
                 Span::styled(tape.clone(), st(m, Role::Big)),
             ])),
         }

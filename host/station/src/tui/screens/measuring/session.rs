@@ -5,6 +5,7 @@
 use tapeshape_estimator::Unit;
 use tapeshape_protocol::UnitShown;
 
+use crate::i18n::{self, tr};
 use crate::services::{CheckOutcome, CheckRequest, EstimateRequest};
 use crate::session::careful::{self, Round, Tem};
 use crate::session::{MeasurementInfo, SessionView};
@@ -76,29 +77,39 @@ impl Item {
         let round = c.open_round();
         let shown: Vec<String> = round.readings.iter().map(|v| unit.format(*v)).collect();
         Some(match (round.readings.len(), round.apart(), c.allowed) {
-            (2, Some(apart), Some(allowed)) => format!(
-                "third reading needed: the two differ by {} (allowed {})",
-                difference(unit, apart),
-                difference(unit, allowed)
+            (2, Some(apart), Some(allowed)) => tr!(
+                "careful-third-needed",
+                apart = difference(unit, apart),
+                allowed = difference(unit, allowed)
             ),
             (0, _, _) => match (self.value, careful::rounds(&c.chain, c.allowed).last()) {
-                (Some(v), Some(last)) => format!(
-                    "kept {} (the median of {})",
-                    unit.format(v),
-                    last.readings
+                (Some(v), Some(last)) => tr!(
+                    "careful-kept",
+                    value = unit.format(v),
+                    readings = last
+                        .readings
                         .iter()
                         .map(|r| unit.format(*r))
                         .collect::<Vec<_>>()
                         .join(", ")
                 ),
-                _ => format!("reading 1 of {}", round.needed()),
+                _ => tr!("careful-first", needed = round.needed()),
             },
-            (n, _, _) => format!(
-                "reading {} of {} (so far {})",
-                n + 1,
-                round.needed(),
-                shown.join(", ")
+            (n, _, _) => tr!(
+                "careful-next",
+                n = n + 1,
+                needed = round.needed(),
+                so_far = shown.join(", ")
             ),
+        })
+    }
+
+    /// Careful mode: the round's two readings differ by more than the
+    /// allowable error, so a third is needed (the status line warns).
+    pub fn careful_third_needed(&self) -> bool {
+        self.careful.as_ref().is_some_and(|c| {
+            let round = c.open_round();
+            round.readings.len() == 2 && round.apart().is_some() && c.allowed.is_some()
         })
     }
 }
@@ -263,9 +274,18 @@ fn tape_unit(shown: UnitShown) -> Unit {
 /// A session was created or opened: it becomes the one measured.
 pub fn on_session_ready(app: &mut App, view: SessionView, fx: &mut Vec<Effect>) {
     let careful_session = view.careful.is_some();
+    let set = view.set.clone();
     let mut items: Vec<Item> = view
         .measurements
         .into_iter()
+        .map(|info| MeasurementInfo {
+            // The operator's name and instruction in the chosen language
+            // where the catalogue has them (the quick set), else the set
+            // file's: every place the kiosk shows them reads these.
+            label: i18n::measurement_label(&set, &info.name, &info.label),
+            description: i18n::measurement_instruction(&set, &info.name, &info.description),
+            name: info.name,
+        })
         .map(|info| Item {
             state: ItemState::Todo,
             value: None,
@@ -341,21 +361,18 @@ pub fn on_session_ready(app: &mut App, view: SessionView, fx: &mut Vec<Effect>) 
     let after = app.after_open.take().unwrap_or(AfterOpen::Measure);
     app.screen = Screen::Measuring;
     if resumed > 0 {
-        app.note(
-            Level::Info,
-            format!(
-                "Session {id} opened with its {resumed} stored readings{}",
-                if unknown.is_empty() {
-                    String::new()
-                } else {
-                    format!(
-                        " ({} not in its set: {})",
-                        unknown.len(),
-                        unknown.join(", ")
-                    )
-                }
-            ),
-        );
+        let text = if unknown.is_empty() {
+            tr!("measuring-opened", id = id.to_string(), n = resumed)
+        } else {
+            tr!(
+                "measuring-opened-unknown",
+                id = id.to_string(),
+                n = resumed,
+                unknown = unknown.len(),
+                names = unknown.join(", ")
+            )
+        };
+        app.note(Level::Info, text);
     } else {
         app.notice = None;
     }
@@ -375,7 +392,7 @@ pub fn on_session_ready(app: &mut App, view: SessionView, fx: &mut Vec<Effect>) 
         }
         AfterOpen::ShowResult => app.note(
             Level::Info,
-            format!("Session {id} has no stored estimate: press e to estimate it"),
+            tr!("measuring-no-stored-estimate", id = id.to_string()),
         ),
     }
 }
@@ -396,10 +413,10 @@ pub fn on_reading_stored(
     }
     let v = reading.value_tenth_mm;
     let Some(i) = s.index_of(&reading.measurement) else {
-        let text = format!(
-            "Stored {} as {} (not in this set)",
-            app.unit.format(v),
-            reading.measurement
+        let text = tr!(
+            "measuring-stored-not-in-set",
+            value = app.unit.format(v),
+            name = reading.measurement.clone()
         );
         app.note(Level::Warn, text);
         return;
@@ -425,7 +442,7 @@ pub fn on_reading_stored(
                     s.items[i].state = ItemState::Todo;
                 }
                 s.undo.push(UndoEntry {
-                    what: format!("reading of {}", before.info.label),
+                    what: tr!("measuring-undo-reading", name = before.info.label.clone()),
                     reverts,
                     item: Some((i, before)),
                     current: s.current,
@@ -443,7 +460,12 @@ pub fn on_reading_stored(
                 };
                 app.note(
                     level,
-                    format!("Stored {label} = {stored}; {status}: measure it again"),
+                    tr!(
+                        "measuring-stored-careful-again",
+                        name = label,
+                        value = stored,
+                        status = status
+                    ),
                 );
                 return;
             }
@@ -454,7 +476,7 @@ pub fn on_reading_stored(
         clear_mark(s.id, &before, mark, &mut reverts, fx);
     }
     s.undo.push(UndoEntry {
-        what: format!("reading of {}", before.info.label),
+        what: tr!("measuring-undo-reading", name = before.info.label.clone()),
         reverts,
         item: Some((i, before)),
         current: s.current,
@@ -480,22 +502,22 @@ pub fn on_reading_stored(
     }));
     let label = s.items[i].info.label.clone();
     let was = s.items[i].previous.last().copied();
-    let shown = match unit_shown {
-        UnitShown::Metric => "",
-        UnitShown::Imperial => " (tape showing inches)",
-    };
-    let retake = match was {
-        Some(w) => format!(" (retake; was {})", app.unit.format(w)),
-        None => String::new(),
-    };
-    let text = match s.items[i].careful.as_ref() {
-        Some(_) => format!(
-            "Stored {label} = {}; kept {}, the median of this round{retake}{shown}",
-            app.unit.format(reading.value_tenth_mm),
-            app.unit.format(v)
+    let mut text = match s.items[i].careful.as_ref() {
+        Some(_) => tr!(
+            "measuring-stored-careful-kept",
+            name = label,
+            value = app.unit.format(reading.value_tenth_mm),
+            kept = app.unit.format(v)
         ),
-        None => format!("Stored {label} = {}{retake}{shown}", app.unit.format(v)),
+        None => tr!("measuring-stored", name = label, value = app.unit.format(v)),
     };
+    if let Some(w) = was {
+        let was = tr!("measuring-stored-retake", was = app.unit.format(w));
+        text.push_str(&format!(" ({was})"));
+    }
+    if unit_shown == UnitShown::Imperial {
+        text.push_str(&format!(" ({})", tr!("measuring-stored-inches")));
+    }
     app.note(Level::Info, text);
 }
 
@@ -563,15 +585,12 @@ pub fn on_checked(app: &mut App, name: &str, value_tenth_mm: u32, outcome: Check
         s.current = Some(i);
         s.selected = i;
         let label = item.info.label.clone();
-        let what = if item.flag.is_some() {
-            "far off."
+        let text = if item.flag.is_some() {
+            tr!("measuring-flag-far-off", name = label)
         } else {
-            "unit slip?"
+            tr!("measuring-flag-unit-slip", name = label)
         };
-        app.note(
-            Level::Warn,
-            format!("{label}: {what} Measure again, or Enter to keep it"),
-        );
+        app.note(Level::Warn, text);
     } else {
         item.state = ItemState::Done;
         let note = outcome.note;
@@ -595,16 +614,15 @@ pub(super) fn advance(app: &mut App) {
     } else {
         let skipped = s.count(ItemState::Skipped);
         let flagged = s.count(ItemState::Flagged);
-        app.note(
-            Level::Info,
-            format!(
-                "All measurements taken{}: press e to estimate the body",
-                match (skipped, flagged) {
-                    (0, 0) => String::new(),
-                    _ => format!(" ({skipped} skipped, {flagged} flagged)"),
-                }
+        let text = match (skipped, flagged) {
+            (0, 0) => tr!("measuring-all-taken"),
+            _ => tr!(
+                "measuring-all-taken-marked",
+                skipped = skipped,
+                flagged = flagged
             ),
-        );
+        };
+        app.note(Level::Info, text);
     }
 }
 
@@ -613,15 +631,12 @@ pub(super) fn start_estimate(app: &mut App, fx: &mut Vec<Effect>, then_export: b
     let Some(s) = &app.session else { return };
     let request = s.estimate_request();
     if request.readings.is_empty() {
-        app.note(
-            Level::Warn,
-            "No readings yet: take at least one measurement before estimating",
-        );
+        app.note(Level::Warn, tr!("measuring-no-readings"));
         app.screen = Screen::Measuring;
         return;
     }
     if s.items.iter().any(|i| i.state == ItemState::Checking) {
-        app.note(Level::Info, "A reading is still being checked; try again");
+        app.note(Level::Info, tr!("measuring-still-checking"));
         return;
     }
     let session = s.id;
