@@ -33,6 +33,8 @@ use tapeshape_estimator::{
     CONDITIONAL_Z_WARN,
 };
 
+use crate::i18n::{self, msg, FluentArgs, Lang};
+
 /// Above this many SDs from the prediction a reading is a [`Flag::Warn`]
 /// (3 SD: about 1 honest reading in 370 under a Gaussian).
 pub const WARN_Z: f64 = 3.0;
@@ -71,6 +73,9 @@ pub struct ReadingCheck {
     pub flag: Flag,
     /// A unit that explains a far-off value, if any.
     pub unit_slip: Option<UnitSlip>,
+    /// The unit the tape showed (the messages' numbers are in it).
+    #[serde(skip)]
+    pub shown: Unit,
     /// True when the estimate would refuse the set with this reading in it
     /// (both references place it beyond the estimator's refusal level).
     pub estimate_refuses: bool,
@@ -205,8 +210,56 @@ fn judge(name: &str, value: f64, shown: Unit, p: &ReadingPrediction) -> ReadingC
         conditioned_on: p.conditioned_on,
         flag,
         unit_slip,
+        shown,
         estimate_refuses,
         message,
+    }
+}
+
+impl ReadingCheck {
+    /// [`ReadingCheck::message`] for the operator, in `lang`, with the
+    /// measurement called `label` (the kiosk's name of it; the English
+    /// message uses the measurement's name). Numbers keep a decimal point,
+    /// as the tape shows them. Catalogue keys `check-*`.
+    pub fn message_in(&self, lang: Lang, label: &str) -> String {
+        let sym = self.shown.symbol();
+        let show = |m: f64| m / self.shown.metres();
+        let mut args = FluentArgs::new();
+        args.set("name", label.to_string());
+        args.set("value", format!("{:.1}", show(self.value)));
+        args.set("unit", sym);
+        if let Some(s) = &self.unit_slip {
+            args.set("number", format!("{:.1}", s.number));
+            args.set("other", s.unit.symbol());
+            args.set("metres", format!("{:.1}", show(s.metres)));
+            return i18n::text_in(lang, msg!("check-unit-slip"), Some(&args));
+        }
+        args.set(
+            "prediction",
+            format!(
+                "({:.0} ± {:.0} {sym})",
+                show(self.predicted_mean),
+                show(self.predicted_sd)
+            ),
+        );
+        let source = match (self.conditioned_on, self.reference) {
+            (0, Reference::RealPeople) => msg!("check-source-people"),
+            (0, Reference::Training) => msg!("check-source-population"),
+            (1, _) => msg!("check-source-other"),
+            _ => msg!("check-source-others"),
+        };
+        args.set("source", i18n::text_in(lang, source, None));
+        args.set("z", format!("{:.1}", self.z.abs()));
+        let id = match (self.flag, self.z > 0.0, self.estimate_refuses) {
+            (Flag::Ok, _, _) => msg!("check-fits"),
+            (Flag::Warn, true, _) => msg!("check-warn-above"),
+            (Flag::Warn, false, _) => msg!("check-warn-below"),
+            (Flag::Flag, true, false) => msg!("check-flag-above"),
+            (Flag::Flag, false, false) => msg!("check-flag-below"),
+            (Flag::Flag, true, true) => msg!("check-flag-above-refused"),
+            (Flag::Flag, false, true) => msg!("check-flag-below-refused"),
+        };
+        i18n::text_in(lang, id, Some(&args))
     }
 }
 
@@ -242,6 +295,59 @@ mod tests {
                 Flag::Ok
             };
             assert_eq!(c.flag, want, "k {k}: {}", c.message);
+        }
+    }
+
+    /// The kiosk's sentence comes from the catalogue: in English it is the
+    /// line mode's sentence word for word (with the name given), for every
+    /// kind (fits, check it, measure again, refused, a unit slip); in
+    /// German every kind is German and keeps the numbers.
+    #[test]
+    fn the_operator_sentence_in_english_is_the_line_modes_and_german_is_german() {
+        let e = estimator();
+        let p = e.predict_reading("chest", &taken()).expect("predicts");
+        let mut cases: Vec<ReadingCheck> = [0.5, -3.5, 4.2, 4.5, 5.0, -4.5, -7.0, 40.0]
+            .iter()
+            .map(|k| check_reading(e, &taken(), ("chest", p.mean + k * p.sd)).unwrap())
+            .collect();
+        // A waist typed as 33 cm that is 33 in: a unit slip.
+        cases.push(
+            check_reading_with_tolerance(e, &taken()[..2], ("waist", 0.33), Unit::Cm, None)
+                .unwrap(),
+        );
+        cases.push(check_reading(e, &[], ("stature", 1.75)).unwrap());
+        let kinds: Vec<(Flag, bool, bool)> = cases
+            .iter()
+            .map(|c| (c.flag, c.unit_slip.is_some(), c.estimate_refuses))
+            .collect();
+        for want in [
+            (Flag::Ok, false, false),
+            (Flag::Warn, false, false),
+            (Flag::Flag, false, false),
+        ] {
+            assert!(kinds.contains(&want), "{want:?} not among {kinds:?}");
+        }
+        assert!(kinds.iter().any(|k| k.1), "a unit slip: {kinds:?}");
+        assert!(kinds.iter().any(|k| !k.1 && k.2), "a refused one: {kinds:?}");
+        for c in &cases {
+            assert_eq!(c.message_in(Lang::En, &c.name), c.message);
+            let de = c.message_in(Lang::De, "Brustumfang");
+            assert!(de.starts_with("Brustumfang "), "{de}");
+            let german = [
+                "passt zu dem",
+                "SD über dem",
+                "SD unter dem",
+                "Einheit am Maßband",
+            ];
+            assert!(german.iter().any(|w| de.contains(w)), "{de}");
+            // The numbers are the English sentence's.
+            let number = |t: &str| {
+                t.split_whitespace()
+                    .filter(|w| w.chars().next().is_some_and(|ch| ch.is_ascii_digit()))
+                    .map(str::to_string)
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(number(&de), number(&c.message), "{de} / {}", c.message);
         }
     }
 

@@ -308,6 +308,23 @@ careful-next = Messung { $n } von { $needed } (bisher { $so_far })
 careful-third-needed = dritte Messung nötig: die zwei weichen um { $apart } ab (erlaubt { $allowed })
 careful-kept = behalten { $value } (der Median von { $readings })
 
+## Checking a reading (the measuring screen's line after "!"; the line mode
+## and `tapeshape check` keep the English sentence with the measurement's name)
+
+check-source-people = dem, was für Menschen typisch ist
+check-source-population = dem, was für die Population des Modells typisch ist
+check-source-other = dem, was der andere Messwert vorhersagt
+check-source-others = dem, was die anderen Messwerte vorhersagen
+check-fits = { $name } { $value } { $unit } passt zu { $source } { $prediction }
+check-warn-above = { $name } { $value } { $unit } liegt { $z } SD über { $source } { $prediction }: bitte prüfen
+check-warn-below = { $name } { $value } { $unit } liegt { $z } SD unter { $source } { $prediction }: bitte prüfen
+check-flag-above = { $name } { $value } { $unit } liegt { $z } SD über { $source } { $prediction }: neu messen
+check-flag-below = { $name } { $value } { $unit } liegt { $z } SD unter { $source } { $prediction }: neu messen
+check-flag-above-refused = { $name } { $value } { $unit } liegt { $z } SD über { $source } { $prediction }: neu messen (die Berechnung wird ihn ablehnen)
+check-flag-below-refused = { $name } { $value } { $unit } liegt { $z } SD unter { $source } { $prediction }: neu messen (die Berechnung wird ihn ablehnen)
+check-unit-slip = { $name } { $value } { $unit } passt als { $number } { $other } ({ $metres } { $unit }): Einheit am Maßband prüfen
+check-not-checked = { $name } nicht geprüft: { $error }
+
 ## Estimating screen
 
 estimating-title = Der Körper wird berechnet

@@ -305,6 +305,23 @@ careful-next = reading { $n } of { $needed } (so far { $so_far })
 careful-third-needed = third reading needed: the two differ by { $apart } (allowed { $allowed })
 careful-kept = kept { $value } (the median of { $readings })
 
+## Checking a reading (the measuring screen's line after "!"; the line mode
+## and `tapeshape check` keep the English sentence with the measurement's name)
+
+check-source-people = what is typical for people
+check-source-population = what is typical for the model's population
+check-source-other = what the other reading predicts
+check-source-others = what the other readings predict
+check-fits = { $name } { $value } { $unit } fits { $source } { $prediction }
+check-warn-above = { $name } { $value } { $unit } is { $z } SD above { $source } { $prediction }: check it
+check-warn-below = { $name } { $value } { $unit } is { $z } SD below { $source } { $prediction }: check it
+check-flag-above = { $name } { $value } { $unit } is { $z } SD above { $source } { $prediction }: measure again
+check-flag-below = { $name } { $value } { $unit } is { $z } SD below { $source } { $prediction }: measure again
+check-flag-above-refused = { $name } { $value } { $unit } is { $z } SD above { $source } { $prediction }: measure again (the estimate will refuse it)
+check-flag-below-refused = { $name } { $value } { $unit } is { $z } SD below { $source } { $prediction }: measure again (the estimate will refuse it)
+check-unit-slip = { $name } { $value } { $unit } fits { $number } { $other } ({ $metres } { $unit }): check the tape's unit
+check-not-checked = { $name } not checked: { $error }
+
 ## Estimating screen
 
 estimating-title = Estimating the body

@@ -19,7 +19,7 @@ use tapeshape_mesh::{Mesh, Topology, Vec3};
 
 use crate::check::{check_reading_with_tolerance, Flag};
 use crate::estimate::{self, ExportReport, MeshFormat, SessionInfo};
-use crate::i18n::tr;
+use crate::i18n::{self, tr};
 use crate::services::{
     Cancel, CheckOutcome, CheckRequest, EstimateEvent, EstimateRequest, EstimateSummary,
     ProgressSink, ResultRow, ServiceError, Services, Silhouettes, Stage,
@@ -175,11 +175,18 @@ impl StationServices {
 
 impl Services for StationServices {
     fn check(&self, req: &CheckRequest) -> CheckOutcome {
+        // The operator's words: the kiosk's name of the measurement, in the
+        // chosen language (`ReadingCheck::message` is the line mode's).
+        let label = i18n::measurement_label(&req.set, &req.name, &req.name);
         let estimator = match estimator() {
             Ok(e) => e,
             Err(e) => {
                 return CheckOutcome {
-                    note: Some(format!("{} not checked: {e}", req.name)),
+                    note: Some(tr!(
+                        "check-not-checked",
+                        name = label.as_str(),
+                        error = e.to_string()
+                    )),
                     ..CheckOutcome::default()
                 }
             }
@@ -198,18 +205,19 @@ impl Services for StationServices {
         ) {
             Ok(c) => {
                 let slip = c.unit_slip.is_some();
+                let words = c.message_in(i18n::lang(), &label);
                 match c.flag {
                     Flag::Ok => CheckOutcome::default(),
                     Flag::Warn => CheckOutcome {
-                        note: Some(c.message),
+                        note: Some(words),
                         ..CheckOutcome::default()
                     },
                     Flag::Flag if slip => CheckOutcome {
-                        unit_slip: Some(c.message),
+                        unit_slip: Some(words),
                         ..CheckOutcome::default()
                     },
                     Flag::Flag => CheckOutcome {
-                        flag: Some(c.message),
+                        flag: Some(words),
                         ..CheckOutcome::default()
                     },
                 }
@@ -217,7 +225,11 @@ impl Services for StationServices {
             // An unknown name (a custom set's measurement the model lacks)
             // cannot be checked; the reading is kept and the operator told.
             Err(e) => CheckOutcome {
-                note: Some(format!("{} not checked: {e}", req.name)),
+                note: Some(tr!(
+                    "check-not-checked",
+                    name = label.as_str(),
+                    error = e.to_string()
+                )),
                 ..CheckOutcome::default()
             },
         }
