@@ -328,7 +328,10 @@ mod tests {
             assert!(kinds.contains(&want), "{want:?} not among {kinds:?}");
         }
         assert!(kinds.iter().any(|k| k.1), "a unit slip: {kinds:?}");
-        assert!(kinds.iter().any(|k| !k.1 && k.2), "a refused one: {kinds:?}");
+        assert!(
+            kinds.iter().any(|k| !k.1 && k.2),
+            "a refused one: {kinds:?}"
+        );
         for c in &cases {
             assert_eq!(c.message_in(Lang::En, &c.name), c.message);
             let de = c.message_in(Lang::De, "Brustumfang");
