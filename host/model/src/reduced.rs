@@ -92,6 +92,9 @@ impl<'a> ReducedObjective<'a> {
     /// Panics if `reference` or `x0` is not 3V long or a term or edge names
     /// a vertex beyond V (all come from the template the basis was
     /// computed for).
+    ///
+    /// Where `x0 - reference` is itself `B C0` (earlier rounds of this
+    /// solver alone), [`ReducedObjective::with_offset`] is cheaper.
     pub fn new(
         terms: Vec<SegmentTerm>,
         basis: &'a SmoothBasis,
@@ -158,6 +161,31 @@ impl<'a> ReducedObjective<'a> {
             scratch: RefCell::new((vec![0.0; 3 * m], vec![0.0; 3 * m])),
             readings: None,
         }
+    }
+
+    /// [`ReducedObjective::new`] for a start `x0 = reference + B c0`
+    /// (`c0`: 3k, by coordinate), whose smoothness terms follow from `c0`
+    /// without a pass over the mesh: `B^T L B c0 = sigma c0`.
+    ///
+    /// Panics as [`ReducedObjective::new`], or if `c0` is not 3k long.
+    pub fn with_offset(
+        terms: Vec<SegmentTerm>,
+        basis: &'a SmoothBasis,
+        x0: &[f64],
+        c0: &[f64],
+        lambda: f64,
+    ) -> Self {
+        let k = basis.k();
+        assert_eq!(c0.len(), 3 * k, "c0 is 3k");
+        // With x0 as its own reference `new` skips the pass over the edges.
+        let mut obj = Self::new(terms, basis, &[], x0, x0, lambda);
+        obj.es0 = 0.0;
+        for (j, &c) in c0.iter().enumerate() {
+            let s = basis.values()[j % k];
+            obj.linear[j] = 4.0 * s * c;
+            obj.es0 += 2.0 * s * c * c;
+        }
+        obj
     }
 
     /// The same objective with `E_m` fitted per reading instead of per
@@ -472,20 +500,21 @@ impl<'a> ReducedObjective<'a> {
     /// The vertices `x = x0 + B C` (flat, 3V, mm) into `out`, `x0` the
     /// start the objective was built for.
     pub fn vertices(&self, x0: &[f64], c: &[f64], out: &mut [f64]) {
-        let (n, k) = (self.basis.n_vertices(), self.basis.k());
-        let mut disp = Mat::<f64>::zeros(n, 3);
-        matmul(
-            &mut disp,
-            Accum::Replace,
-            MatRef::from_row_major_slice(self.basis.rows(), n, k),
-            MatRef::from_column_major_slice(c, k, 3),
-            1.0,
-            Par::Seq,
-        );
-        for v in 0..n {
-            for a in 0..3 {
-                out[3 * v + a] = x0[3 * v + a] + disp[(v, a)];
+        let k = self.basis.k();
+        let (c0, rest) = c.split_at(k);
+        let (c1, c2) = rest.split_at(k);
+        // One pass over the V x k basis (a GEMM with three columns would
+        // first copy all of it into its packed layout).
+        for (v, row) in self.basis.rows().chunks_exact(k).enumerate() {
+            let (mut a, mut b, mut d) = (0.0, 0.0, 0.0);
+            for i in 0..k {
+                a += row[i] * c0[i];
+                b += row[i] * c1[i];
+                d += row[i] * c2[i];
             }
+            out[3 * v] = x0[3 * v] + a;
+            out[3 * v + 1] = x0[3 * v + 1] + b;
+            out[3 * v + 2] = x0[3 * v + 2] + d;
         }
     }
 }

@@ -76,6 +76,8 @@ struct Step2Rounds<'a> {
     symbolic: SymbolicCache,
     /// The smooth-basis solver's basis (each round solves for `x = x_mm + B C`).
     smooth: Option<std::sync::Arc<SmoothBasis>>,
+    /// Without polishing: the coefficients of `x_mm - reference_mm` in it.
+    smooth_c: Option<Vec<f64>>,
 }
 
 impl RoundStep for Step2Rounds<'_> {
@@ -147,14 +149,21 @@ impl RoundStep for Step2Rounds<'_> {
                 },
                 Some(basis),
             ) => {
-                let mut obj = ReducedObjective::new(
-                    terms.clone(),
-                    basis,
-                    self.edges,
-                    &self.reference_mm,
-                    &self.x_mm,
-                    lambda,
-                );
+                // Without polishing every shape of the rounds is
+                // reference + B c: the smoothness terms follow from c.
+                let mut obj = match (&self.smooth_c, polish) {
+                    (Some(c0), None) => {
+                        ReducedObjective::with_offset(terms.clone(), basis, &self.x_mm, c0, lambda)
+                    }
+                    _ => ReducedObjective::new(
+                        terms.clone(),
+                        basis,
+                        self.edges,
+                        &self.reference_mm,
+                        &self.x_mm,
+                        lambda,
+                    ),
+                };
                 if *fit == SmoothFit::Readings {
                     obj = obj.fit_readings(&owner);
                 }
@@ -162,6 +171,9 @@ impl RoundStep for Step2Rounds<'_> {
                     Ok((c, info)) if info.reason != Termination::Interrupted => {
                         let mut x = vec![0.0; self.x_mm.len()];
                         obj.vertices(&self.x_mm, &c, &mut x);
+                        if let Some(c0) = self.smooth_c.as_mut() {
+                            c0.iter_mut().zip(&c).for_each(|(t, d)| *t += d);
+                        }
                         match polish {
                             Some(solver) => {
                                 log.runs.push(info);
@@ -251,6 +263,12 @@ impl ShapeModel {
             p_mm: Vec::new(),
             best: None,
             symbolic: SymbolicCache::default(),
+            smooth_c: match (&smooth, config.solver) {
+                (Some(b), Step2Method::SmoothBasis { polish: None, .. }) => {
+                    Some(vec![0.0; 3 * b.k()])
+                }
+                _ => None,
+            },
             smooth,
         };
         let thresholds = thresholds(

@@ -298,3 +298,28 @@ fn readings_fit_gradient_and_minimum() {
         "reading error {before} -> {after} mm"
     );
 }
+
+/// A start inside the basis (`x0 = x_ref + B c0`): the objective built
+/// from `c0` is the one built from the mesh, to rounding.
+#[test]
+fn offset_in_the_basis_gives_the_same_objective() {
+    let w = 8;
+    let (reference, edges) = grid(w, 5);
+    let n = reference.len() / 3;
+    let basis = SmoothBasis::compute(n, &edges, 20).unwrap();
+    let terms = terms(&reference, w, 1.03);
+    let c0 = random(3 * basis.k(), 6, 1.5);
+    let probe = ReducedObjective::new(terms.clone(), &basis, &edges, &reference, &reference, 0.1);
+    let mut x0 = vec![0.0; reference.len()];
+    probe.vertices(&reference, &c0, &mut x0);
+    let a = ReducedObjective::new(terms.clone(), &basis, &edges, &reference, &x0, 0.1);
+    let b = ReducedObjective::with_offset(terms, &basis, &x0, &c0, 0.1);
+    let c = random(a.len(), 7, 0.7);
+    let (mut ga, mut gb) = (vec![0.0; a.len()], vec![0.0; a.len()]);
+    let (fa, fb) = (a.eval(&c, &mut ga), b.eval(&c, &mut gb));
+    assert!((fa - fb).abs() <= 1e-9 * fa.abs(), "{fa} vs {fb}");
+    let gmax = ga.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for (x, y) in ga.iter().zip(&gb) {
+        assert!((x - y).abs() <= 1e-9 * gmax, "{x} vs {y}");
+    }
+}
