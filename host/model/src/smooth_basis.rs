@@ -127,6 +127,17 @@ impl SmoothBasis {
         Ok(basis)
     }
 
+    /// The basis of `k` modes for the mesh with fingerprint `key`
+    /// ([`edges_key`]) and `n_vertices` vertices, if this process has it.
+    pub fn find_shared(n_vertices: usize, key: u64, k: usize) -> Option<Arc<Self>> {
+        SHARED
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .iter()
+            .find(|b| b.key == key && b.k == k && b.n_vertices == n_vertices)
+            .cloned()
+    }
+
     /// Keeps `basis` for the process (e.g. one read from a cache file), so
     /// that [`SmoothBasis::shared`] returns it.
     pub fn share(basis: Self) -> Arc<Self> {
