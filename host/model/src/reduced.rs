@@ -9,18 +9,25 @@
 //! of a 41,154-unknown system; both cost about 200 ms per prediction. The
 //! objective's smoothness term is diagonal in the basis, and each segment
 //! term of `E_m` sees the coefficients through one k-vector `b_e` (its end
-//! points' interpolated basis rows), so a Gauss-Newton iteration costs six
-//! k x k products over the segments and one dense 3k x 3k Cholesky; a round
-//! needs a handful. The basis is also why the result stays smooth: a
-//! displacement made of the k smoothest modes cannot bend the surface at a
-//! support point (the full Gauss-Newton step 2's failure on real people,
-//! `docs/prediction.md`).
+//! points' interpolated basis rows), so a Gauss-Newton iteration is a
+//! Woodbury solve over the residuals: an m x m Cholesky for the m segment
+//! terms (a few hundred), or an M x M one for the M readings
+//! ([`ReducedObjective::fit_readings`]); a round needs a handful.
 //!
-//! The objective is exactly step 2's, `(1 - lambda) E_m + lambda E_s`, at
-//! `x = x_ref + B C` (`x_ref` the step-1 shape, `B` V x k orthonormal with
-//! `B^T L B = diag(sigma)`): with `d_e(x) = d_e(x_ref) + C^T b_e`,
+//! The objective is step 2's, `(1 - lambda) E_m + lambda E_s`, at
+//! `x = x0 + B C` (`x0` the round's start, `x_ref` the step-1 shape, `B`
+//! V x k orthonormal with `B^T L B = diag(sigma)`, `u = x0 - x_ref`): with
+//! `d_e(x) = d_e(x0) + C^T b_e`,
 //!
-//! `F(C) = (1 - lambda) sum_e c_e (|d_e|^2 - l_t(e)^2)^2 + lambda 2 sum_i sigma_i |C_i|^2`.
+//! `F(C) = (1 - lambda) sum_e c_e (|d_e|^2 - l_t(e)^2)^2
+//!        + lambda (E_s(u) + 4 sum_a C_a^T B^T L u_a + 2 sum_i sigma_i |C_i|^2)`,
+//!
+//! or with `E_m` in its readings' form ([`ReducedObjective::fit_readings`]).
+//! What was measured (`docs/results/predict-sreal.md`,
+//! `docs/results/predict-iso.md`): the readings' form meets generated
+//! bodies' readings as the default does, the per-segment form cannot (the
+//! smooth modes cannot move length along a support), and both bend real
+//! people with contradicting readings where L-BFGS does not.
 //!
 //! Unknowns are ordered by coordinate: `c[a k + i]` is mode `i`'s
 //! coefficient of coordinate `a` (mm). Deterministic: one thread, a fixed
@@ -423,11 +430,12 @@ impl<'a> ReducedObjective<'a> {
     }
 
     /// The Gauss-Newton step at `c` with gradient `g`: `delta` solving
-    /// `(H + mu I) delta = -g` ([`ReducedObjective::hessian`]'s `H`) by the
+    /// `(H + mu I) delta = -g` (`H` the Gauss-Newton Hessian of the
+    /// per-segment energy) by the
     /// Woodbury identity over the m segment terms,
     /// `(D + J^T W J)^-1 = D^-1 - D^-1 J^T W^1/2 S^-1 W^1/2 J D^-1`,
     /// `S = I + W^1/2 J D^-1 J^T W^1/2`, where `J D^-1 J^T` is `K`
-    /// ([`ReducedObjective::kernel`]) times `h_e . h_f` entry by entry
+    /// (`ReducedObjective::kernel`) times `h_e . h_f` entry by entry
     /// (`J`'s row `e` is `b_e (x) h_e`). An m x m Cholesky (m a few
     /// hundred segments) instead of a 3k x 3k one. `None` if `S` is not
     /// numerically definite.
