@@ -18,6 +18,7 @@
 
 use criterion::{criterion_main, Criterion};
 use tapeshape_estimator::{train, Estimator, Inputs, PredictOptions, TrainSettings, DEFAULT_SETS};
+use tapeshape_model::{PredictSettings, Step2Solver};
 use tapeshape_population::{generate_population, Dataset, PopulationSettings};
 
 fn bench_predict(c: &mut Criterion) {
@@ -48,7 +49,17 @@ fn bench_predict(c: &mut Criterion) {
         }
         inputs
     };
-    let settings = PredictOptions::default();
+    // The default, then step 2 in the smooth basis (issue 13): each set
+    // once with the default and once with the option, alternating, so that
+    // a change of load hits both alike.
+    let default = PredictOptions::default();
+    let mut smooth_settings = PredictSettings::default();
+    smooth_settings.step2.solver = Step2Solver::smooth_basis();
+    let smooth = PredictOptions::custom(smooth_settings);
+    // The basis is computed once per process (not part of a prediction).
+    estimator
+        .predict(&inputs_of("quick"), &smooth)
+        .expect("predict");
     let mut g = c.benchmark_group("predict");
     g.sample_size(20);
     // The first name is what the issue-4 figures were recorded under.
@@ -59,7 +70,10 @@ fn bench_predict(c: &mut Criterion) {
     ] {
         let inputs = inputs_of(set);
         g.bench_function(label, |b| {
-            b.iter(|| estimator.predict(&inputs, &settings).expect("predict"))
+            b.iter(|| estimator.predict(&inputs, &default).expect("predict"))
+        });
+        g.bench_function(format!("{label}_smooth_step2"), |b| {
+            b.iter(|| estimator.predict(&inputs, &smooth).expect("predict"))
         });
     }
     g.finish();

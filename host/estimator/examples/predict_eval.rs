@@ -21,7 +21,7 @@
 //! Every experiment takes the prediction settings as flags (see
 //! `settings_from_args`): `--paper` for the paper's exact pipeline, and
 //! `--gn`, `--w1`, `--w2`, `--w2-scale`, `--prior`, `--k1`, `--box`,
-//! `--cont`, `--budget`, `--iters1`, `--iters2`, `--solver2 lbfgs|gn` (step 2's
+//! `--cont`, `--budget`, `--iters1`, `--iters2`, `--solver2 lbfgs|gn|smooth|smooth:MODES[:POLISH]` (step 2's
 //! solver), `--l`, `--lambda`, `--s`.
 
 use std::collections::BTreeMap;
@@ -732,7 +732,42 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
             "gn" => Step2Solver::GaussNewton {
                 stop: Default::default(),
             },
-            other => return Err(format!("--solver2 lbfgs|gn, got {other}").into()),
+            "smooth" => Step2Solver::smooth_basis(),
+            "smooth-segments" => match Step2Solver::smooth_basis() {
+                Step2Solver::SmoothBasis {
+                    modes,
+                    polish,
+                    stop,
+                    ..
+                } => Step2Solver::SmoothBasis {
+                    modes,
+                    fit: tapeshape_model::SmoothFit::Segments,
+                    polish,
+                    stop,
+                },
+                other => other,
+            },
+            other => {
+                // smooth:MODES or smooth:MODES:POLISH
+                let parts: Option<Vec<u64>> = other
+                    .strip_prefix("smooth:")
+                    .map(|r| r.split(':').map(|p| p.parse().ok()).collect())
+                    .and_then(|v: Option<Vec<u64>>| v);
+                match parts.as_deref() {
+                    Some([modes]) | Some([modes, _]) => Step2Solver::SmoothBasis {
+                        modes: *modes as usize,
+                        fit: tapeshape_model::SmoothFit::Readings,
+                        polish: parts.as_ref().and_then(|p| p.get(1).copied()).unwrap_or(0),
+                        stop: Default::default(),
+                    },
+                    _ => {
+                        return Err(format!(
+                            "--solver2 lbfgs|gn|smooth|smooth:MODES[:POLISH], got {other}"
+                        )
+                        .into())
+                    }
+                }
+            }
         };
     }
     if let Some(v) = arg(args, "--iters2") {

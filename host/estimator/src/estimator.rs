@@ -238,6 +238,18 @@ impl Estimator {
             targets[j] = Some(t);
             soft_targets.push(entry);
         }
+        // The smooth-basis step 2's basis: from the cache directory where
+        // there is one (else the model computes it on first use).
+        if let (tapeshape_model::Step2Solver::SmoothBasis { modes, .. }, Some(dir)) =
+            (config.settings().step2.solver, CACHE_DIR.get())
+        {
+            crate::basis_cache::prepare(
+                dir,
+                self.topology.n_vertices(),
+                self.topology.edges(),
+                modes,
+            );
+        }
         let p = self
             .file
             .model

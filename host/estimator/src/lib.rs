@@ -76,6 +76,7 @@
 //! Units: metres inside, station frame (Z up, feet at z = 0, +Y front, +X the
 //! body's right).
 
+mod basis_cache;
 pub mod cache;
 pub mod checks;
 mod error;

@@ -365,3 +365,61 @@ fn an_implausible_but_possible_set_gives_a_result_with_a_warning() {
         est.report.warnings
     );
 }
+
+/// Step 2 in the smooth basis (issue 13, `Step2Solver::SmoothBasis`) on the
+/// embedded default model and a held-out body's quick and paper34 values:
+/// every reading within its ISO 20685-1 tolerance, as with the default;
+/// the readings' summed squared error (what the step-2 energy measures,
+/// mm^2) at most that of the default's L-BFGS plus 0.01 mm^2; the shape no
+/// farther from the true body than the default's plus 0.05 mm (mean vertex
+/// distance); and a second run the same bit for bit.
+#[test]
+fn the_smooth_basis_step_2_meets_the_readings_as_the_default_does() {
+    use tapeshape_model::{PredictSettings, Step2Solver};
+    let e = default_estimator();
+    let mut settings = PredictSettings::default();
+    settings.step2.solver = Step2Solver::smooth_basis();
+    let smooth = PredictOptions::custom(settings);
+    let body = &fixture().heldout.bodies[1];
+    for set in ["quick", "paper34"] {
+        let names = usable(e, set);
+        let truth = measure(e, &names, body);
+        let mut inputs = Inputs::new();
+        for (n, v) in names.iter().zip(&truth) {
+            inputs.insert_metres(n, *v).unwrap();
+        }
+        let a = e.predict(&inputs, &smooth).unwrap();
+        let b = e.predict(&inputs, &smooth).unwrap();
+        assert_eq!(a.mesh.vertices, b.mesh.vertices, "{set}: not deterministic");
+        let lbfgs = e.predict(&inputs, &PredictOptions::default()).unwrap();
+        let squared = |vertices: &[Vec3]| -> f64 {
+            let got = measure(e, &names, vertices);
+            let mut sum = 0.0;
+            for (k, n) in names.iter().enumerate() {
+                let tol = e.set().definitions[e.set().index_of(n).unwrap()]
+                    .tolerance
+                    .mm();
+                let err = (got[k] - truth[k]).abs() * 1000.0;
+                assert!(
+                    err <= tol,
+                    "{set}, {n}: error {err:.2} mm above the ISO tolerance {tol} mm"
+                );
+                sum += err * err;
+            }
+            sum
+        };
+        let (ss, sl) = (squared(&a.mesh.vertices), squared(&lbfgs.mesh.vertices));
+        assert!(
+            ss <= sl + 0.01,
+            "{set}: squared reading error {ss:.4} mm^2, L-BFGS {sl:.4}"
+        );
+        let (ds, dl) = (
+            1000.0 * vertex_distance(&a.mesh.vertices, body),
+            1000.0 * vertex_distance(&lbfgs.mesh.vertices, body),
+        );
+        assert!(
+            ds <= dl + 0.05,
+            "{set}: vertex distance {ds:.3} mm, L-BFGS {dl:.3}"
+        );
+    }
+}

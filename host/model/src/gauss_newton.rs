@@ -617,4 +617,4 @@ fn assemble(
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -40,8 +40,10 @@ pub mod lbfgs;
 pub mod map;
 pub mod pca;
 pub mod predict;
+pub mod reduced;
 pub mod refine;
 pub mod regress;
+pub mod smooth_basis;
 
 mod model;
 
@@ -51,8 +53,8 @@ pub use model::{FitSettings, ShapeModel};
 pub use predict::{
     Continuation, Control, EnergyWeighting, MeasurementReport, Measurer, Plausibility,
     PlausibilityLabel, PredictConfig, PredictObserver, PredictProgress, PredictSettings,
-    PredictStage, Prediction, PredictionReport, Readings, Round, SettingsError, StageTimings,
-    StartMethod, Step1Clamp, Step1Settings, Step1Solver, Step2Settings, Step2Solver,
+    PredictStage, Prediction, PredictionReport, Readings, Round, SettingsError, SmoothFit,
+    StageTimings, StartMethod, Step1Clamp, Step1Settings, Step1Solver, Step2Settings, Step2Solver,
     Step2Weighting, Target,
 };
 pub use tapeshape_measure::{Measured, Support, SupportPoint};

@@ -121,3 +121,27 @@ fn gauss_newton_step_2_is_bit_identical_under_load() {
     assert_eq!(quiet.vertices, loaded.vertices);
     assert_eq!(quiet.report, loaded.report);
 }
+
+/// Step 2 in the smooth basis (the basis computed once per process, the
+/// reduced Gauss-Newton on one thread) gives bit-identical predictions
+/// too, with other threads spinning, and for both of its fits.
+#[test]
+fn smooth_basis_step_2_is_bit_identical_under_load() {
+    use tapeshape_model::SmoothFit;
+    let (model, targets) = setup();
+    for fit in [SmoothFit::Readings, SmoothFit::Segments] {
+        let mut s = PredictSettings::default();
+        // The tube has 12 x 16 vertices: 60 modes.
+        s.step2.solver = Step2Solver::SmoothBasis {
+            modes: 60,
+            fit,
+            polish: 0,
+            stop: Default::default(),
+        };
+        let quiet = untimed(predict(&model, &targets, &s));
+        let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+        let loaded = untimed(busy(cores, || predict(&model, &targets, &s)));
+        assert_eq!(quiet.vertices, loaded.vertices, "{fit:?}");
+        assert_eq!(quiet.report, loaded.report, "{fit:?}");
+    }
+}

@@ -8,7 +8,7 @@ use tapeshape_measure::SupportPoint;
 
 /// A bumpy `w x w` grid (mm) with its edges (rows, columns, one diagonal
 /// per cell), as a stand-in for the template.
-fn grid(w: u32, seed: u64) -> (Vec<f64>, Vec<[u32; 2]>) {
+pub(crate) fn grid(w: u32, seed: u64) -> (Vec<f64>, Vec<[u32; 2]>) {
     let mut s = seed;
     let mut x = Vec::new();
     for i in 0..w {
@@ -43,7 +43,7 @@ fn grid(w: u32, seed: u64) -> (Vec<f64>, Vec<[u32; 2]>) {
 /// points on edges, consecutive points sharing a vertex (so that a term's
 /// two points touch one vertex twice), stiff as per-measurement weighting
 /// makes them; targets `scale` times the current lengths.
-fn terms(x: &[f64], w: u32, scale: f64) -> Vec<SegmentTerm> {
+pub(crate) fn terms(x: &[f64], w: u32, scale: f64) -> Vec<SegmentTerm> {
     let id = |i: u32, j: u32| i * w + j;
     let p = |v: u32| {
         [

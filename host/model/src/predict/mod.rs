@@ -58,8 +58,9 @@ pub use report::{
 pub use rounds::{RoundsStop, RoundsSummary};
 pub use settings::{
     Continuation, EnergyWeighting, PredictConfig, PredictSettings, ReadingsConfig, ReportConfig,
-    RoundsConfig, SettingsError, StartConfig, Step1Clamp, Step1Config, Step1Settings, Step1Solver,
-    Step2Config, Step2Settings, Step2Solver, Step2Weighting, DEFAULT_MAX_EVALUATIONS,
+    RoundsConfig, SettingsError, SmoothFit, StartConfig, Step1Clamp, Step1Config, Step1Settings,
+    Step1Solver, Step2Config, Step2Settings, Step2Solver, Step2Weighting, DEFAULT_MAX_EVALUATIONS,
+    DEFAULT_SMOOTH_MODES, DEFAULT_SMOOTH_POLISH,
 };
 pub use start::{StartMethod, StartShape};
 pub use step1::Step1Shape;

@@ -26,13 +26,15 @@ use tapeshape_mesh::{Topology, Vec3};
 use super::progress::{in_run, in_run_every, PredictObserver, PredictProgress, PredictStage};
 use super::readings::Readings;
 use super::rounds::{run_rounds, thresholds, RoundEnd, RoundLog, RoundStep, RoundsSummary};
-use super::settings::{RoundsConfig, Step2Config, Step2Method};
+use super::settings::{RoundsConfig, SmoothFit, Step2Config, Step2Method};
 use super::step1::Step1Shape;
 use super::terms::{to_m, to_mm};
 use super::Measurer;
 use crate::gauss_newton::{minimise_vertices, SymbolicCache};
 use crate::lbfgs::{minimise_watched, RunInfo, Termination};
+use crate::reduced::{minimise_reduced, ReducedObjective};
 use crate::refine::VertexObjective;
+use crate::smooth_basis::SmoothBasis;
 use crate::{ModelError, Result, ShapeModel, MM_PER_M};
 
 /// Step 2's result: the final mesh and the readings measured on it.
@@ -72,6 +74,10 @@ struct Step2Rounds<'a> {
     best: Option<(usize, f64, Vec<f64>, Vec<Measured>)>,
     /// The Gauss-Newton solver's symbolic factorisation, kept between rounds.
     symbolic: SymbolicCache,
+    /// The smooth-basis solver's basis (each round solves for `x = x_mm + B C`).
+    smooth: Option<std::sync::Arc<SmoothBasis>>,
+    /// Without polishing: the coefficients of `x_mm - reference_mm` in it.
+    smooth_c: Option<Vec<f64>>,
 }
 
 impl RoundStep for Step2Rounds<'_> {
@@ -110,7 +116,7 @@ impl RoundStep for Step2Rounds<'_> {
         observer: &dyn PredictObserver,
         log: &mut RoundLog,
     ) -> Result<RoundEnd> {
-        let terms = self.model.build_terms(
+        let (terms, owner) = self.model.build_terms_owned(
             self.readings,
             measured,
             &self.p_mm,
@@ -121,18 +127,79 @@ impl RoundStep for Step2Rounds<'_> {
         if terms.is_empty() {
             return Ok(RoundEnd::NothingToFit);
         }
-        let obj = VertexObjective::new(terms, self.edges, &self.reference_mm, self.config.lambda);
-        let run = match &self.config.solver {
-            Step2Method::Lbfgs(solver) => {
-                minimise_watched(&obj, self.x_mm.clone(), solver, &in_run(observer, at))
-            }
-            Step2Method::GaussNewton(stop) => minimise_vertices(
-                &obj,
+        let lambda = self.config.lambda;
+        let watch = in_run_every(observer, at, 1);
+        let run = match (&self.config.solver, self.smooth.as_mut()) {
+            (Step2Method::Lbfgs(solver), _) => minimise_watched(
+                &VertexObjective::new(terms, self.edges, &self.reference_mm, lambda),
+                self.x_mm.clone(),
+                solver,
+                &in_run(observer, at),
+            ),
+            (Step2Method::GaussNewton(stop), _) => minimise_vertices(
+                &VertexObjective::new(terms, self.edges, &self.reference_mm, lambda),
                 self.x_mm.clone(),
                 stop,
                 &mut self.symbolic,
-                &in_run_every(observer, at, 1),
+                &watch,
             ),
+            (
+                Step2Method::SmoothBasis {
+                    stop, polish, fit, ..
+                },
+                Some(basis),
+            ) => {
+                // Without polishing every shape of the rounds is
+                // reference + B c: the smoothness terms follow from c.
+                let mut obj = match (&self.smooth_c, polish) {
+                    (Some(c0), None) => {
+                        ReducedObjective::with_offset(terms.clone(), basis, &self.x_mm, c0, lambda)
+                    }
+                    _ => ReducedObjective::new(
+                        terms.clone(),
+                        basis,
+                        self.edges,
+                        &self.reference_mm,
+                        &self.x_mm,
+                        lambda,
+                    ),
+                };
+                if *fit == SmoothFit::Readings {
+                    obj = obj.fit_readings(&owner);
+                }
+                match minimise_reduced(&obj, vec![0.0; obj.len()], stop, &watch) {
+                    Ok((c, info)) if info.reason != Termination::Interrupted => {
+                        let mut x = vec![0.0; self.x_mm.len()];
+                        obj.vertices(&self.x_mm, &c, &mut x);
+                        if let Some(c0) = self.smooth_c.as_mut() {
+                            c0.iter_mut().zip(&c).for_each(|(t, d)| *t += d);
+                        }
+                        match polish {
+                            Some(solver) => {
+                                log.runs.push(info);
+                                minimise_watched(
+                                    &VertexObjective::new(
+                                        terms,
+                                        self.edges,
+                                        &self.reference_mm,
+                                        lambda,
+                                    ),
+                                    x,
+                                    solver,
+                                    &in_run(observer, at),
+                                )
+                            }
+                            None => Ok((x, info)),
+                        }
+                    }
+                    other => other,
+                }
+            }
+            (Step2Method::SmoothBasis { .. }, None) => {
+                return Err(ModelError::Numerical(
+                    "step 2: the smooth basis was not prepared".into(),
+                ))
+            }
         };
         match run {
             Ok((_, info)) if info.reason == Termination::Interrupted => {
@@ -176,6 +243,13 @@ impl ShapeModel {
                 }
             }));
         let reference_mm = to_mm(&step1.vertices).as_flattened().to_vec();
+        let smooth = match config.solver {
+            Step2Method::SmoothBasis { modes, .. } => Some(
+                SmoothBasis::shared(topology.n_vertices(), topology.edges(), modes)
+                    .map_err(|e| ModelError::Numerical(format!("step 2: {e}")))?,
+            ),
+            _ => None,
+        };
         let mut step = Step2Rounds {
             model: self,
             measurer,
@@ -189,6 +263,13 @@ impl ShapeModel {
             p_mm: Vec::new(),
             best: None,
             symbolic: SymbolicCache::default(),
+            smooth_c: match (&smooth, config.solver) {
+                (Some(b), Step2Method::SmoothBasis { polish: None, .. }) => {
+                    Some(vec![0.0; 3 * b.k()])
+                }
+                _ => None,
+            },
+            smooth,
         };
         let thresholds = thresholds(
             readings,
