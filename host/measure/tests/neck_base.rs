@@ -4,8 +4,10 @@
 //! shoulders. These properties would each catch a definition that measures
 //! something else under the name: a loop that misses a landmark, a value
 //! outside what real people of the body's sex measure, a definition that is
-//! not a length (scaling), and one that leaks onto the shoulders (the plane
-//! cut it replaced grew by 70 mm with broader shoulders).
+//! not a length (scaling), and one that leaks onto the shoulders (a plane
+//! cut through the suprasternale with the normal the old definition used
+//! grows from 586 to 656 mm on the template with the shoulder-width local
+//! change at +1).
 //!
 //! ANSUR II figures are the survey's table committed as
 //! `host/population/data/ansur2/definitions.csv` (men / women): neck base
