@@ -140,10 +140,7 @@ fn main() -> anyhow::Result<()> {
             tile = framed;
             tiles.push(tile);
         }
-        let rows: Vec<_> = tiles
-            .chunks(COLUMNS)
-            .map(|row| render::hstack(row))
-            .collect();
+        let rows: Vec<_> = tiles.chunks(COLUMNS).map(render::hstack).collect();
         let sheet = render::vstack(&rows);
         let path = out.join(format!("{}.png", set.name));
         save_small_png(&sheet, &path)?;
