@@ -335,6 +335,10 @@ fn a_girth_is_seen_edge_on_and_a_line_where_it_is_longest() {
             // The view direction closer to the girth's plane: y (front)
             // when the normal has less of y than of x.
             Kind::Circumference { normal, .. } if normal[1].abs() > normal[0].abs() => View::Side,
+            // The neck base loop (the only loop of `quick`) rises from the
+            // jugular notch to C7 (ISO 8559-1): from the side it is seen
+            // edge on, a tilted line.
+            Kind::GeodesicLoop { .. } => View::Side,
             _ => View::Front,
         };
         assert_eq!(p.view, want, "{}", def.name);

@@ -220,32 +220,63 @@ pub(super) fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
     ));
 
     // ---- neck and torso ----
-    let neck_base = c.joint("neck01", false)?;
+    // The neck base (ISO 8559-1, ANSUR II's base-of-neck landmarks): where the
+    // neck meets the trunk, found as corners of the mid-plane silhouettes
+    // between the shoulder joint's height and the neck02 joint's (mid-neck)
+    // height. Corners, not rig joints: the neck01 joint sits about 15 mm below
+    // the back's corner and the neck/torso part boundary about 20 mm above the
+    // front's hollow on the derivation body, and the landmark heights they gave
+    // (0.854 and 0.838 of stature) missed ANSUR II's cervicale and
+    // suprasternale (0.864 / 0.857 and 0.819 / 0.817, men / women).
+    let shoulder = c.joint("upperarm01.R", false)?;
+    let neck_mid = c.joint("neck02", false)?;
+    let (z_shoulder, z_neck_mid) = (shoulder[2], neck_mid[2]);
     let back = c.profile(&[NECK, TORSO], false);
-    let cervicale = *back
-        .iter()
-        .min_by(|&&a, &&b| {
-            (z(a) - neck_base[2])
-                .abs()
-                .total_cmp(&(z(b) - neck_base[2]).abs())
-        })
-        .ok_or_else(|| AnatomyError::Rule("empty back profile".into()))?;
+    let nearest_height = |prof: &[u32], h: f64| -> Result<u32, AnatomyError> {
+        prof.iter()
+            .copied()
+            .min_by(|&a, &b| (z(a) - h).abs().total_cmp(&(z(b) - h).abs()))
+            .ok_or_else(|| AnatomyError::Rule("empty mid-plane silhouette".into()))
+    };
+    let cervicale = {
+        let (lo, hi) = (
+            nearest_height(&back, z_shoulder)?,
+            nearest_height(&back, z_neck_mid)?,
+        );
+        let (zl, yl, zh, yh) = (z(lo), y(lo), z(hi), y(hi));
+        // How far a silhouette vertex lies inside (towards +y, into the body)
+        // the chord from `lo` to `hi`.
+        let inside = |q: V3| q[1] - (yl + (yh - yl) * (q[2] - zl) / (zh - zl));
+        c.argmax(
+            back.iter().copied().filter(|&k| z(k) > zl && z(k) < zh),
+            inside,
+            "cervicale",
+        )?
+    };
     mids.push((
         "cervicale",
-        "back mid-plane silhouette vertex (neck and torso parts) nearest the height of the neck01 bone's head joint (joint-neck cube, the base of the neck)".into(),
+        "back mid-plane silhouette (neck and torso parts) between the heights of the shoulder joint (upperarm01 head) and the neck02 joint: the vertex farthest inside the chord between the silhouette vertices nearest those two heights (the corner where the sloping upper back meets the back of the neck, over C7)".into(),
         cervicale,
     ));
-    let suprasternale = c.argmax(
-        body().filter(|&k| c.mid(k) && c.is_part(k, &[TORSO]) && y(k) > neck_base[1]),
-        |q| q[2],
-        "suprasternale",
-    )?;
+    let front = c.profile(&[NECK, TORSO], true);
+    let suprasternale = {
+        let span: Vec<u32> = front
+            .iter()
+            .copied()
+            .filter(|&k| z(k) > z_shoulder && z(k) < z_neck_mid)
+            .collect();
+        let deepest = c.argmax(span.iter().copied(), |q| -q[1], "suprasternale")?;
+        c.argmax(
+            span.iter().copied().filter(|&k| y(k) <= y(deepest) + 0.002),
+            |q| -q[2],
+            "suprasternale",
+        )?
+    };
     mids.push((
         "suprasternale",
-        "highest mid-plane torso vertex in front of the neck-base joint (the top of the sternum at the neck/torso boundary)".into(),
+        "front mid-plane silhouette (neck and torso parts) between the heights of the shoulder joint (upperarm01 head) and the neck02 joint: its deepest (min y) point is the hollow between the sternum and the throat; of the silhouette vertices within 2 mm of that depth, the lowest (the jugular notch, on the top edge of the sternum)".into(),
         suprasternale,
     ));
-    let shoulder = c.joint("upperarm01.R", false)?;
     let acromion = c.argmax(
         right_of(&[TORSO, UPPER_ARM]).filter(|&k| {
             let d = sub(p(k), shoulder);
@@ -259,43 +290,34 @@ pub(super) fn landmarks(c: &Ctx) -> Result<Vec<DerivedLandmark>, AnatomyError> {
         "the shoulder's upper-lateral corner: among torso/upper-arm vertices within 80 mm of the shoulder joint (upperarm01 head) and 20 mm of its coronal plane, the one furthest up-and-out (max x + 2 z, a direction 63 degrees above horizontal)".into(),
         acromion,
     ));
-    // Neck side: the concave corner of the right front outline between the
-    // neck and the shoulder.
-    let neck_mid = c.joint("neck02", false)?;
-    let neck_side = {
-        let (z_lo, z_hi) = (z(acromion), neck_mid[2]);
-        let mut bins: BTreeMap<i64, u32> = BTreeMap::new();
-        for k in right_of(&[NECK, TORSO])
-            .filter(|&k| z(k) >= z_lo && z(k) <= z_hi && (y(k) - neck_mid[1]).abs() < 0.015)
-        {
-            let b = (z(k) / 0.003).floor() as i64;
-            let e = bins.entry(b).or_insert(k);
-            if x(k) > x(*e) {
-                *e = k;
-            }
+    // Neck side: where the side of the neck meets the shoulder (ISO 8559-1's
+    // side neck point, ANSUR II's lateral neck / trapezius landmark). The
+    // outline's concave corner between the neck and the acromion (the rule
+    // until issue 12) sat 95 mm from the mid-plane on the derivation body, on
+    // the slope of the shoulder: the neck base through it measured 478 mm
+    // against about 400 mm that ANSUR II's means give a body of this size, and
+    // the shoulder length from it ran 31 mm short of ANSUR's.
+    // Vertices of the neck part none of whose edge neighbours is a torso
+    // vertex: the neck proper, one ring above the neck/torso boundary, which
+    // on the side lies out on the flare of the shoulder.
+    let mut touches_torso = vec![false; c.p.len()];
+    for &[a, b] in &c.edges {
+        if c.vpart[b as usize] == TORSO {
+            touches_torso[a as usize] = true;
         }
-        let outline: Vec<u32> = bins.values().copied().collect();
-        let (a, b) = (
-            *outline
-                .last()
-                .ok_or_else(|| AnatomyError::Rule("no neck outline".into()))?,
-            acromion,
-        );
-        let (pa, pb) = ([x(a), z(a)], [x(b), z(b)]);
-        let d = [pb[0] - pa[0], pb[1] - pa[1]];
-        // Signed distance to the chord, positive below-inside (towards -x, -z side).
-        let below = |k: u32| {
-            ((x(k) - pa[0]) * d[1] - (z(k) - pa[1]) * d[0]) / (d[0] * d[0] + d[1] * d[1]).sqrt()
-        };
-        outline
-            .iter()
-            .copied()
-            .max_by(|&i, &j| below(i).total_cmp(&below(j)).then(j.cmp(&i)))
-            .ok_or_else(|| AnatomyError::Rule("no neck outline".into()))?
-    };
+        if c.vpart[a as usize] == TORSO {
+            touches_torso[b as usize] = true;
+        }
+    }
+    let neck_side = c.argmax(
+        right_of(&[NECK])
+            .filter(|&k| !touches_torso[k as usize] && (y(k) - neck_mid[1]).abs() < 0.015),
+        |q| -q[2],
+        "neck_side",
+    )?;
     sided.push((
         "neck_side",
-        "front outline of the right side = per 3 mm height bin the most lateral neck/torso vertex within 15 mm of the coronal plane through the neck02 joint, from the acromion height up to the neck02 joint height; the outline vertex farthest below the chord from the outline's top to the acromion (the neck-shoulder corner)".into(),
+        "the lowest neck-part vertex with no torso vertex among its edge neighbours (the neck proper, one ring above the neck/torso boundary) within 15 mm of the coronal plane through the neck02 joint: where the side of the neck meets the shoulder".into(),
         neck_side,
     ));
     let is_arm_boundary = |k: u32| -> bool {
