@@ -303,3 +303,53 @@ fn sex_is_read_from_measurement_files() {
     let err = Inputs::from_csv("stature,sex\n170cm,x\n", "test").unwrap_err();
     assert!(err.to_string().contains("sex 'x'"), "{err}");
 }
+
+/// The neck read off a body the tape did not measure it on (a shirt's
+/// primary dimension) is where real people of that build and sex have it:
+/// within two conditional SDs of ANSUR II's regression on the readings, and
+/// inside the central 95 % of ANSUR II's train-split neck base girths of
+/// that sex. The plane-cut neck before the definitions audit measured
+/// 590 mm on such a man (ANSUR II men: 435 mm, SD 26), so every shirt was
+/// "tight at the neck".
+#[test]
+fn an_unmeasured_neck_comes_out_where_real_people_have_it() {
+    let e = estimator();
+    for sex in [Sex::Male, Sex::Female] {
+        let mut i = entered(&["stature=176.5cm", "chest=98cm", "waist=84cm", "hip=100cm"]);
+        i.sex = Some(sex);
+        let soft = e
+            .soft_targets(&i, &tapeshape_estimator::RealPeople::default())
+            .unwrap();
+        let (want, sd) = soft
+            .iter()
+            .find(|(_, _, t)| t.name == "neckcircumferencebase")
+            .map(|(_, _, t)| (t.value_mm, t.sd_mm))
+            .expect("the neck base follows ANSUR: it has a soft target");
+        let est = e.predict(&i, &PredictOptions::default()).unwrap();
+        let got = est
+            .report
+            .prediction
+            .measurements
+            .iter()
+            .find(|m| m.name == "neck")
+            .and_then(|m| m.step2_mm)
+            .expect("the quick set's neck is measured on the body");
+        assert!(
+            (got - want).abs() < 2.0 * sd,
+            "{sex:?}: body {got:.1} mm, real people {want:.1} ± {sd:.1} mm"
+        );
+        let mut necks: Vec<f64> = Ansur::get()
+            .unwrap()
+            .subjects(Some(sex), Split::Train)
+            .filter_map(|s| s.dim("neckcircumferencebase"))
+            .map(|m| m * 1000.0)
+            .collect();
+        necks.sort_by(f64::total_cmp);
+        let q = |p: f64| necks[((necks.len() - 1) as f64 * p).round() as usize];
+        let (lo, hi) = (q(0.025), q(0.975));
+        assert!(
+            (lo..=hi).contains(&got),
+            "{sex:?}: body {got:.1} mm outside ANSUR II's central 95 % [{lo:.0}, {hi:.0}] mm"
+        );
+    }
+}
