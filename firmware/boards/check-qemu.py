@@ -250,13 +250,18 @@ class Board:
         os.close(self.tape)
         os.close(self.host)
         pid = int(self.env["QEMU_PID"])
-        for _ in range(20):
+        # QEMU quits on the monitor's "quit"; on a loaded machine that can
+        # take seconds, and it may exit between the last look and the kill.
+        for _ in range(100):
             try:
                 os.kill(pid, 0)
             except OSError:
                 return
             time.sleep(0.1)
-        os.kill(pid, 9)
+        try:
+            os.kill(pid, 9)
+        except ProcessLookupError:
+            pass
 
 
 def fail(msg):
