@@ -335,7 +335,11 @@ fn tally(
 ) -> Result<(), Box<dyn std::error::Error>> {
     let est = match estimator.predict(inputs, settings) {
         Ok(e) => e,
-        Err(e @ (PredictError::Contradiction(_) | PredictError::OutOfRange(_))) => {
+        Err(
+            e @ (PredictError::Contradiction(_)
+            | PredictError::OutOfRange(_)
+            | PredictError::OutOfPopulation { .. }),
+        ) => {
             refused.push(e.to_string());
             for r in &inputs.readings {
                 shares.entry(r.name.clone()).or_default().1 += 1;

@@ -8,6 +8,7 @@ use tapeshape_model::regress::JointGaussian;
 
 use tapeshape_population::ansur::Sex;
 
+use crate::warning::{AgainstOthers, OutOfRange, Warning};
 use crate::{Estimator, Input, Inputs, Length, PredictError, Unit};
 
 /// A reading further than this many training SDs from the training mean is
@@ -338,7 +339,7 @@ impl Estimator {
     /// Checks `inputs` against the model (names, values, units, consistency).
     /// Returns the per-reading checks and warnings, or the first problem as an
     /// error (see the module docs).
-    pub fn check(&self, inputs: &Inputs) -> Result<(Vec<InputCheck>, Vec<String>), PredictError> {
+    pub fn check(&self, inputs: &Inputs) -> Result<(Vec<InputCheck>, Vec<Warning>), PredictError> {
         if inputs.readings.is_empty() {
             return Err(PredictError::Input(
                 "no measurements given: give at least one, e.g. --measure stature=176.5cm".into(),
@@ -363,15 +364,14 @@ impl Estimator {
             .map(|r| r.name.as_str())
             .collect();
         if !bare.is_empty() {
-            warnings.push(format!(
-                "no unit given for {}: read as {}",
-                bare.join(", "),
-                inputs
+            warnings.push(Warning::NoUnit {
+                measurements: bare.iter().map(|s| s.to_string()).collect(),
+                unit: inputs
                     .readings
                     .iter()
                     .find(|r| !r.value.unit_typed)
-                    .map_or("cm", |r| r.value.unit.word())
-            ));
+                    .map_or(Unit::Cm, |r| r.value.unit),
+            });
         }
         for r in &inputs.readings {
             let j = self
@@ -420,14 +420,13 @@ impl Estimator {
             if refused(z, z_train, 0, reference) {
                 let msg = self.out_of_range(r, mean, sd, z);
                 if !kept || z.abs().min(z_train.abs()) > BEYOND_HUMAN_Z || v > BEYOND_HUMAN_M {
-                    return Err(PredictError::OutOfRange(if kept {
-                        format!("{msg}; kept by the operator, but beyond any person")
-                    } else {
-                        msg
-                    }));
+                    return Err(PredictError::OutOfPopulation {
+                        reading: Box::new(msg),
+                        kept,
+                    });
                 }
                 kept_unusual = true;
-                warnings.push(format!("kept by the operator: {msg}"));
+                warnings.push(Warning::KeptOutOfRange(msg));
             }
             index.push(j);
             checks.push(InputCheck {
@@ -510,51 +509,37 @@ impl Estimator {
                 c.predicted_mm = Some(mu * 1000.0);
                 c.predicted_sd_mm = Some(sd * 1000.0);
                 c.conditional_z = Some(zc);
-                let others: Vec<&str> = inputs
+                let others: Vec<String> = inputs
                     .readings
                     .iter()
                     .enumerate()
                     .filter(|&(b, _)| b != a)
-                    .map(|(_, r)| r.name.as_str())
+                    .map(|(_, r)| r.name.clone())
                     .take(4)
                     .collect();
-                let others = if inputs.readings.len() - 1 > others.len() {
-                    format!(
-                        "{} and {} more",
-                        others.join(", "),
-                        inputs.readings.len() - 1 - others.len()
-                    )
-                } else {
-                    others.join(", ")
+                let msg = AgainstOthers {
+                    measurement: c.name.clone(),
+                    cm: c.value_mm / 10.0,
+                    z: zc,
+                    more: inputs.readings.len() - 1 - others.len(),
+                    others,
+                    predicted_cm: mu * 100.0,
+                    sd_cm: sd * 100.0,
                 };
-                let msg = format!(
-                    "{} {:.1} cm is {:.0} SD {} what {others} predict{} ({:.1} +/- {:.1} cm)",
-                    c.name,
-                    c.value_mm / 10.0,
-                    zc.abs(),
-                    if zc > 0.0 { "above" } else { "below" },
-                    if inputs.readings.len() == 2 { "s" } else { "" },
-                    mu * 100.0,
-                    sd * 100.0
-                );
                 let kept = inputs.kept.contains(&c.name);
                 if refused(zc, z_t, index.len() - 1, reference) && kept {
                     c.kept_unusual = true;
-                    warnings.push(format!("kept by the operator: {msg}"));
+                    warnings.push(Warning::KeptAgainstOthers(msg));
                 } else if refused(zc, z_t, index.len() - 1, reference) {
-                    bad.push((zc.abs(), msg));
+                    bad.push(msg);
                 } else if zc.abs() > CONDITIONAL_Z_WARN {
-                    warnings.push(format!("{msg}: check this reading"));
+                    warnings.push(Warning::CheckAgainstOthers(msg));
                 }
             }
         }
         if !bad.is_empty() {
-            bad.sort_by(|a, b| b.0.total_cmp(&a.0));
-            let list: Vec<String> = bad.into_iter().map(|b| b.1).collect();
-            return Err(PredictError::Contradiction(format!(
-                "{}; re-take these readings, or keep them if they are right (the estimate then fits them as far as a human-looking body allows)",
-                list.join("; ")
-            )));
+            bad.sort_by(|a: &AgainstOthers, b| b.z.abs().total_cmp(&a.z.abs()));
+            return Err(PredictError::Contradiction(bad));
         }
         Ok((checks, warnings))
     }
@@ -652,31 +637,18 @@ impl Estimator {
         })
     }
 
-    fn out_of_range(&self, r: &Input, mean: f64, sd: f64, z: f64) -> String {
-        let v = r.value.metres;
-        let typed = format!("{} {}", r.value.number, r.value.unit.symbol());
-        // Another unit that makes the typed number typical?
-        let typical = format!("{:.1} cm +/- {:.1}", mean * 100.0, sd * 100.0);
-        match unit_slip(&r.value, mean, sd).map(|s| s.unit) {
-            Some(u) => format!(
-                "{} {typed} looks like {}: write {}{} (typical: {typical}){}",
-                r.name,
-                u.word(),
-                r.value.number,
-                u.symbol(),
-                if r.value.unit_typed {
-                    String::new()
-                } else {
-                    format!("; a number without a unit is read as {}", r.value.unit.word())
-                }
-            ),
-            None => format!(
-                "{} {typed} ({:.1} cm) is {:.0} SD {} the population the model knows (typical: {typical}): check the reading and its unit",
-                r.name,
-                v * 100.0,
-                z.abs(),
-                if z > 0.0 { "above" } else { "below" }
-            ),
+    fn out_of_range(&self, r: &Input, mean: f64, sd: f64, z: f64) -> OutOfRange {
+        OutOfRange {
+            measurement: r.name.clone(),
+            number: r.value.number,
+            unit: r.value.unit,
+            unit_typed: r.value.unit_typed,
+            cm: r.value.metres * 100.0,
+            z,
+            typical_cm: mean * 100.0,
+            typical_sd_cm: sd * 100.0,
+            // Another unit that makes the typed number typical?
+            slip: unit_slip(&r.value, mean, sd).map(|s| s.unit),
         }
     }
 }

@@ -4,6 +4,24 @@ use tapeshape_measure::MeasureError;
 use tapeshape_model::{ModelError, SettingsError};
 use tapeshape_population::DatasetError;
 
+use crate::warning::{AgainstOthers, OutOfRange};
+
+fn out_of_population_text(reading: &OutOfRange, kept: bool) -> String {
+    if kept {
+        format!("{reading}; kept by the operator, but beyond any person")
+    } else {
+        reading.to_string()
+    }
+}
+
+fn contradiction_text(readings: &[AgainstOthers]) -> String {
+    let list: Vec<String> = readings.iter().map(ToString::to_string).collect();
+    format!(
+        "{}; re-take these readings, or keep them if they are right (the estimate then fits them as far as a human-looking body allows)",
+        list.join("; ")
+    )
+}
+
 /// Errors of training and prediction. The message says what was wrong and
 /// what to do.
 #[derive(Debug, thiserror::Error)]
@@ -19,12 +37,23 @@ pub enum PredictError {
     /// A value that is no length (zero, negative, NaN, infinite).
     #[error("{0}")]
     BadValue(String),
-    /// A value that only makes sense in another unit, or far outside the population.
+    /// A value that cannot be shared out (a loop total no body with the
+    /// other readings has).
     #[error("{0}")]
     OutOfRange(String),
-    /// Readings that contradict each other.
-    #[error("the readings contradict each other: {0}")]
-    Contradiction(String),
+    /// A reading that only makes sense in another unit, or far outside the
+    /// population; `kept`: the operator kept it, but it lies beyond any
+    /// person.
+    #[error("{}", out_of_population_text(.reading, *.kept))]
+    OutOfPopulation {
+        /// The reading and how far off it is.
+        reading: Box<OutOfRange>,
+        /// Whether the operator kept it.
+        kept: bool,
+    },
+    /// Readings that contradict each other (the worst first), none kept.
+    #[error("the readings contradict each other: {}", contradiction_text(.0))]
+    Contradiction(Vec<AgainstOthers>),
     /// Malformed input (syntax, duplicates, files).
     #[error("{0}")]
     Input(String),

@@ -14,6 +14,7 @@ use tapeshape_model::{
 use crate::cache;
 use crate::checks::RealStats;
 use crate::file::{load_model_bytes, DEFAULT_MODEL};
+use crate::warning::Warning;
 use crate::{Estimate, EstimateReport, Inputs, ModelSummary, PredictError, PredictOptions};
 
 /// Where [`Estimator::default_model`] keeps its decoded cache.
@@ -260,12 +261,11 @@ impl Estimator {
             })?;
         let pl = &p.report.plausibility;
         if pl.measurements_label == tapeshape_model::PlausibilityLabel::Unusual {
-            warnings.push(format!(
-                "unusual set of measurements (Mahalanobis distance {:.1} over {} readings, {:.1}% of the population is closer to the mean): the result is plausible but check the readings",
-                pl.measurements_mahalanobis,
-                inputs.readings.len(),
-                100.0 * pl.measurements_quantile
-            ));
+            warnings.push(Warning::UnusualSet {
+                mahalanobis: pl.measurements_mahalanobis,
+                readings: inputs.readings.len(),
+                percent_closer: 100.0 * pl.measurements_quantile,
+            });
         }
         let kept: Vec<String> = checks
             .iter()
@@ -273,14 +273,13 @@ impl Estimator {
             .map(|c| c.name.clone())
             .collect();
         if !kept.is_empty() {
-            warnings.push(format!(
-                "estimated with unusual readings the operator kept ({}): the body fits them as far as a human-looking surface allows; the set's plausibility: {:.1}% of the training population is closer to the mean (Mahalanobis distance {:.1})",
-                kept.join(", "),
-                100.0 * pl.measurements_quantile,
-                pl.measurements_mahalanobis
-            ));
+            warnings.push(Warning::EstimatedWithKept {
+                measurements: kept,
+                percent_closer: 100.0 * pl.measurements_quantile,
+                mahalanobis: pl.measurements_mahalanobis,
+            });
         }
-        warnings.extend(p.report.warnings.iter().cloned());
+        warnings.extend(p.report.warnings.iter().cloned().map(Warning::Model));
         let mesh = Mesh::new(p.vertices, self.topology.clone())
             .map_err(|e| PredictError::Input(format!("building the result mesh: {e}")))?;
         Ok(Estimate {

@@ -88,6 +88,7 @@ pub mod priors;
 pub mod report;
 pub mod totals;
 pub mod train;
+pub mod warning;
 
 pub use checks::{
     refused, unit_slip, InputCheck, ReadingPrediction, Reference, UnitSlip, CONDITIONAL_Z_ERROR,
@@ -107,3 +108,4 @@ pub use tapeshape_model::{
 };
 pub use totals::TotalSplit;
 pub use train::{train, union_set_text, TrainSettings, DEFAULT_SETS};
+pub use warning::{AgainstOthers, OutOfRange, Warning};

@@ -10,6 +10,7 @@ use tapeshape_model::predict::PredictionReport;
 use tapeshape_population::ansur::Sex;
 
 use crate::checks::InputCheck;
+use crate::warning::Warning;
 use crate::{SoftTarget, TotalSplit};
 
 /// Summary of the model used.
@@ -38,8 +39,11 @@ pub struct EstimateReport {
     pub prediction: PredictionReport,
     /// Time to check the inputs.
     pub check_time: Duration,
-    /// Everything the operator should know: input notes and the model's warnings.
-    pub warnings: Vec<String>,
+    /// Everything the operator should know: input notes and the model's
+    /// warnings, coded (the plain strings of older reports read back as
+    /// the model's `Text`).
+    #[serde(deserialize_with = "tapeshape_model::predict::warning::list_from_either")]
+    pub warnings: Vec<Warning>,
     /// The customer's sex as given (`None`: not given, both sexes pooled).
     #[serde(default)]
     pub sex: Option<Sex>,
@@ -61,4 +65,35 @@ pub struct Estimate {
     pub mesh: Mesh,
     /// The report.
     pub report: EstimateReport,
+}
+
+impl EstimateReport {
+    /// The report as the JSON a user's file holds: every field as serde
+    /// writes it, except that `warnings` (here and in `prediction`) is the
+    /// warnings' English text, as it always was, and `warning_codes` beside
+    /// it the same warnings coded (`code` and values) for scripts.
+    /// [`EstimateReport`]'s `Deserialize` reads this form back (the
+    /// warnings then as text).
+    pub fn to_json(&self) -> serde_json::Result<serde_json::Value> {
+        let mut value = serde_json::to_value(self)?;
+        let english =
+            |ws: &[Warning]| -> Vec<String> { ws.iter().map(ToString::to_string).collect() };
+        if let Some(obj) = value.as_object_mut() {
+            obj.insert(
+                "warnings".into(),
+                serde_json::to_value(english(&self.warnings))?,
+            );
+            obj.insert(
+                "warning_codes".into(),
+                serde_json::to_value(&self.warnings)?,
+            );
+            if let Some(p) = obj.get_mut("prediction").and_then(|p| p.as_object_mut()) {
+                let ws = &self.prediction.warnings;
+                let text: Vec<String> = ws.iter().map(ToString::to_string).collect();
+                p.insert("warnings".into(), serde_json::to_value(text)?);
+                p.insert("warning_codes".into(), serde_json::to_value(ws)?);
+            }
+        }
+        Ok(value)
+    }
 }

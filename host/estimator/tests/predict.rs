@@ -330,7 +330,7 @@ fn bad_input_gets_a_clear_message() {
 
     // A waist three times the hip: far outside the population.
     let e = refuse(&["waist=300cm", "hip=100cm"]);
-    assert!(matches!(e, PredictError::OutOfRange(_)), "{e}");
+    assert!(matches!(e, PredictError::OutOfPopulation { .. }), "{e}");
     // Each plausible alone, but not together.
     let e = refuse(&["waist=125cm", "hip=85cm"]);
     assert!(matches!(e, PredictError::Contradiction(_)), "{e}");
@@ -357,13 +357,29 @@ fn an_implausible_but_possible_set_gives_a_result_with_a_warning() {
         p.measurements_mahalanobis
     );
     assert!(
-        est.report
-            .warnings
-            .iter()
-            .any(|w| w.contains("Mahalanobis")),
+        est.report.warnings.iter().any(|w| matches!(
+            w,
+            tapeshape_estimator::Warning::UnusualSet { .. }
+        ) || matches!(
+            w,
+            tapeshape_estimator::Warning::Model(tapeshape_model::Warning::FarFromPopulation { .. })
+        )),
         "{:?}",
         est.report.warnings
     );
+    // The user's JSON: the English text under "warnings" (as before the
+    // codes), the codes beside it, and it reads back.
+    let json = est.report.to_json().unwrap();
+    let text: Vec<String> = est.report.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(json["warnings"], serde_json::json!(text));
+    assert_eq!(
+        json["warning_codes"].as_array().map(Vec::len),
+        Some(est.report.warnings.len())
+    );
+    assert!(json["warning_codes"][0]["code"].is_string(), "{json}");
+    let back: tapeshape_estimator::EstimateReport = serde_json::from_value(json).unwrap();
+    let back_text: Vec<String> = back.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(back_text, text);
 }
 
 /// Step 2 in the smooth basis (issue 13, `Step2Solver::SmoothBasis`) on the

@@ -257,7 +257,12 @@ pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRu
                             .iter()
                             .map(|t| (t.name.clone(), t.sd_mm))
                             .collect();
-                        r.warnings = est.report.warnings;
+                        r.warnings = est
+                            .report
+                            .warnings
+                            .iter()
+                            .map(ToString::to_string)
+                            .collect();
                     }
                 },
             }

@@ -166,7 +166,7 @@ fn main() {
                 degenerate += p.report.plausibility.degenerate_triangles;
                 warned += usize::from(!p.report.warnings.is_empty());
                 for w in &p.report.warnings {
-                    let key: String = w.chars().take(70).collect();
+                    let key: String = w.to_string().chars().take(70).collect();
                     *warning_kinds.entry(key).or_insert(0usize) += 1;
                 }
             }

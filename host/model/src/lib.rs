@@ -55,7 +55,7 @@ pub use predict::{
     PlausibilityLabel, PredictConfig, PredictObserver, PredictProgress, PredictSettings,
     PredictStage, Prediction, PredictionReport, Readings, Round, SettingsError, SmoothFit,
     StageTimings, StartMethod, Step1Clamp, Step1Settings, Step1Solver, Step2Settings, Step2Solver,
-    Step2Weighting, Target,
+    Step2Weighting, Target, Warning,
 };
 pub use tapeshape_measure::{Measured, Support, SupportPoint};
 

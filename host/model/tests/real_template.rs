@@ -92,7 +92,9 @@ fn paper34_prediction_on_generated_bodies() {
             );
         }
         assert!(
-            !r.warnings.iter().any(|w| w.starts_with("step 1 ended")),
+            !r.warnings
+                .iter()
+                .any(|w| matches!(w, tapeshape_model::Warning::Step1KeptStart { .. })),
             "step 1 was undone: {:?}",
             r.warnings
         );

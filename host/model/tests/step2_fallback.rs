@@ -82,9 +82,13 @@ fn a_step_2_that_ends_worse_than_step_1_keeps_its_best_round() {
     assert_eq!(jumping.calls.get(), last);
     let r = &p.report;
     assert!(
-        r.warnings
-            .iter()
-            .any(|w| w.contains("kept its shape at the start of round 3")),
+        r.warnings.iter().any(|w| matches!(
+            w,
+            tapeshape_model::Warning::Step2KeptEarlier {
+                kept_round: Some((3, _)),
+                ..
+            }
+        )),
         "{:?}",
         r.warnings
     );

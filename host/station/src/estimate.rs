@@ -455,8 +455,13 @@ pub struct ExportReport {
     pub measured_not_given: Vec<(String, f64)>,
     /// Plausibility of the readings and the body.
     pub plausibility: ReportPlausibility,
-    /// Everything the operator or an engineer should know.
+    /// Everything the operator or an engineer should know, in English.
     pub warnings: Vec<String>,
+    /// The same warnings coded (`code` and values), for scripts and for
+    /// wording them in the operator's language. Empty in reports written
+    /// before the codes (their `warnings` stand).
+    #[serde(default)]
+    pub warning_codes: Vec<tapeshape_estimator::Warning>,
     /// The model used (the estimator's `ModelSummary`).
     pub model: serde_json::Value,
     /// Stage timings.
@@ -547,7 +552,8 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
             shape_mahalanobis: pl.mahalanobis,
             out_of_space_rms_mm: pl.out_of_space_rms_mm,
         },
-        warnings: r.warnings.clone(),
+        warnings: r.warnings.iter().map(ToString::to_string).collect(),
+        warning_codes: r.warnings.clone(),
         model: json_value(&r.model),
         timings: ReportTimings {
             check_ms: ms(r.check_time),
@@ -561,7 +567,7 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
             estimate.mesh.faces().len(),
         ),
         files,
-        estimator: json_value(r),
+        estimator: r.to_json().unwrap_or(serde_json::Value::Null),
         sizes: None,
         careful: None,
     }

@@ -12,6 +12,7 @@
 //! |---|---|---|---|
 //! | 0 | words | [`i18n`] | the operator text's message catalogue (Fluent, `locales/<lang>/station.ftl`, embedded) and the language chosen at start |
 //! | 1 | words | [`text`] | lengths, times, device faults, digests as the station writes them |
+//! | 1 | words | [`warning_text`] | the estimate's coded warnings and refusals worded from the catalogue |
 //! | 2 | bottom | [`store`] | the SQLite session store: rows, migrations (`migrations/`), reads; its writes are crate-private steps of one transaction |
 //! | 3 | bottom | [`link`] | the serial link to the tape (frames, acks, reconnects); commits through its `ReadingSink` trait |
 //! | 4 | session | [`session`] | what a session is: start, open, resume; readings from the tape (it is the link's `ReadingSink`) or the keyboard; undo, skip, marks; the stored estimate. Every change is one transaction of `Sessions::change` |
@@ -31,3 +32,4 @@ pub mod store;
 pub mod sync;
 pub mod text;
 pub mod tui;
+pub mod warning_text;

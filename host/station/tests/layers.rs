@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 const RANKS: &[(&str, u32)] = &[
     ("i18n", 0),
     ("text", 1),
+    ("warning_text", 1),
     ("store", 2),
     ("link", 3),
     ("session", 4),

@@ -178,7 +178,7 @@ fn careful_second_reading_in_german() {
     live(&mut a, 17_655);
     let screen = render(&a);
     assert!(
-        screen.contains("Genau   Messung 2 von 2 (bisher 176.5"),
+        screen.contains("Doppelt Messung 2 von 2 (bisher 176.5"),
         "{screen}"
     );
     // The instruction is the quick set's, in German.

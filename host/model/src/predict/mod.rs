@@ -43,6 +43,7 @@ pub mod start;
 pub mod step1;
 pub mod step2;
 mod terms;
+pub mod warning;
 
 use std::time::Instant;
 
@@ -65,6 +66,7 @@ pub use settings::{
 pub use start::{StartMethod, StartShape};
 pub use step1::Step1Shape;
 pub use step2::Step2Shape;
+pub use warning::{Step1Objective, Warning};
 
 use crate::{ModelError, Result, ShapeModel};
 use progress::{no_observer, report as report_progress};

@@ -14,6 +14,7 @@ use super::settings::{PredictConfig, PredictSettings};
 use super::start::{StartMethod, StartShape};
 use super::step1::Step1Shape;
 use super::step2::Step2Shape;
+use super::warning::Warning;
 use super::Measurer;
 use crate::lbfgs::RunInfo;
 use crate::{Result, ShapeModel, MM_PER_M};
@@ -139,8 +140,10 @@ pub struct PredictionReport {
     /// How step 2's rounds went (`None` in reports of older versions).
     #[serde(default)]
     pub step2_rounds: Option<RoundsSummary>,
-    /// Things the operator or engineer should know.
-    pub warnings: Vec<String>,
+    /// Things the operator or engineer should know (coded; the plain
+    /// strings of older reports read as [`Warning::Text`]).
+    #[serde(deserialize_with = "super::warning::list_from_either")]
+    pub warnings: Vec<Warning>,
     /// Settings used.
     pub settings: PredictSettings,
 }
@@ -280,7 +283,7 @@ impl ShapeModel {
         timings: StageTimings,
     ) -> Result<PredictionReport> {
         let rc = config.report();
-        let mut warnings: Vec<String> = step1
+        let mut warnings: Vec<Warning> = step1
             .warnings
             .iter()
             .chain(&step2.warnings)
@@ -289,9 +292,10 @@ impl ShapeModel {
         let (x1, x2) = (&step1.vertices, &step2.vertices);
         let (flipped, degenerate) = triangle_changes(topology, x1, x2);
         if flipped > 0 || degenerate > 0 {
-            warnings.push(format!(
-                "step 2 flipped {flipped} and collapsed {degenerate} triangles: the measurements may be inconsistent"
-            ));
+            warnings.push(Warning::TrianglesChanged {
+                flipped,
+                collapsed: degenerate,
+            });
         }
         let back = self.shape_unchecked(&self.pca.project(x2.as_flattened()));
         let mut sum2 = 0.0;
@@ -310,11 +314,11 @@ impl ShapeModel {
         let meas_label =
             PlausibilityLabel::from_quantile(if meas_q.is_finite() { meas_q } else { 1.0 });
         if meas_label == PlausibilityLabel::Implausible {
-            warnings.push(format!(
-                "the measurements are far from the training population (Mahalanobis distance {meas_maha:.1} over {} measurements): the shape is held to {} SD and may not fit them all",
-                n_readings,
-                rc.l
-            ));
+            warnings.push(Warning::FarFromPopulation {
+                mahalanobis: meas_maha,
+                readings: n_readings,
+                held_sd: rc.l,
+            });
         }
         let plausibility = Plausibility {
             mahalanobis,
@@ -356,10 +360,11 @@ impl ShapeModel {
             r.error_mm = Some(err);
             r.soft = g.soft;
             if err > rc.warn_error_mm && !g.soft {
-                warnings.push(format!(
-                    "'{}' could not be fitted within {} mm (error {err:.1} mm)",
-                    r.name, rc.warn_error_mm
-                ));
+                warnings.push(Warning::NotFitted {
+                    measurement: r.name.clone(),
+                    limit_mm: rc.warn_error_mm,
+                    error_mm: err,
+                });
             }
         }
         let given = readings.indices();
@@ -373,9 +378,9 @@ impl ShapeModel {
                         reports[j].step2_mm = Some(m.value * MM_PER_M);
                     }
                 }
-                Err(e) => {
-                    warnings.push(format!("measuring the measurements not given failed: {e}"))
-                }
+                Err(e) => warnings.push(Warning::MeasuringFailed {
+                    reason: e.to_string(),
+                }),
             }
         }
         Ok(PredictionReport {

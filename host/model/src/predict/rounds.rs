@@ -29,6 +29,7 @@ use tapeshape_measure::Measured;
 use super::progress::{report, PredictObserver, PredictProgress, PredictStage, Round};
 use super::readings::Readings;
 use super::settings::{Continuation, RoundsConfig};
+use super::warning::Warning;
 use crate::lbfgs::{MinimiseError, RunInfo};
 use crate::{Result, MM_PER_M};
 
@@ -80,7 +81,7 @@ pub struct RoundLog {
     /// One per solver run (a Gauss-Newton round that falls back adds two).
     pub runs: Vec<RunInfo>,
     /// Things the operator or engineer should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
 }
 
 impl RoundLog {
@@ -207,10 +208,11 @@ pub fn run_rounds<S: RoundStep>(
                 RoundEnd::Ran => ran += 1,
                 RoundEnd::NothingToFit => break 'rounds RoundsStop::NothingToFit,
                 RoundEnd::Failed(e) => {
-                    log.warnings.push(format!(
-                        "{} round {round}: optimiser stopped: {e}",
-                        S::STAGE
-                    ));
+                    log.warnings.push(Warning::SolverStopped {
+                        stage: S::STAGE,
+                        round,
+                        reason: e.to_string(),
+                    });
                     break 'rounds RoundsStop::SolverFailed;
                 }
             }

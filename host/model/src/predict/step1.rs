@@ -27,6 +27,7 @@ use super::rounds::{run_rounds, thresholds, RoundEnd, RoundLog, RoundStep, Round
 use super::settings::{LbfgsRounds, RoundsConfig, Step1Config, Step1Method};
 use super::start::StartShape;
 use super::terms::{map_objective, to_mm};
+use super::warning::{Step1Objective, Warning};
 use super::Measurer;
 use crate::lbfgs::{minimise_watched, RunInfo, Termination};
 use crate::map::MapProblem;
@@ -49,7 +50,7 @@ pub struct Step1Shape {
     /// How the rounds went.
     pub rounds: RoundsSummary,
     /// Things the operator or engineer should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
 }
 
 /// Step 1 as the round driver sees it.
@@ -202,7 +203,7 @@ impl RoundStep for Step1Rounds<'_> {
             &to_mm(&self.x),
             (weighting, 1.0),
             &mut log.warnings,
-            "step 1",
+            PredictStage::Step1,
         );
         if terms.is_empty() {
             return Ok(RoundEnd::NothingToFit);
@@ -304,7 +305,7 @@ impl ShapeModel {
                 (
                     f(&start.measured, &start.weights),
                     f(&meas1, &w),
-                    "MAP objective",
+                    Step1Objective::MapObjective,
                 )
             }
             Step1Method::Lbfgs(r) => (
@@ -315,13 +316,15 @@ impl ShapeModel {
                     (r.weighting, 1.0),
                 ),
                 self.stage_energy(readings, &meas1, &x1, (r.weighting, 1.0)),
-                "measurement energy E_m (mm^4)",
+                Step1Objective::MeasurementEnergy,
             ),
         };
         if err1 > err_start || err1.is_nan() {
-            warnings.push(format!(
-                "step 1 ended with a higher {what} than the start ({err1:.4e} vs {err_start:.4e}): kept the start shape"
-            ));
+            warnings.push(Warning::Step1KeptStart {
+                objective: what,
+                end: err1,
+                start: err_start,
+            });
             w.clone_from(&start.weights);
             x1.clone_from(&start.vertices);
             meas1.clone_from(&start.measured);

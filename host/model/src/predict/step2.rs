@@ -29,6 +29,7 @@ use super::rounds::{run_rounds, thresholds, RoundEnd, RoundLog, RoundStep, Round
 use super::settings::{RoundsConfig, SmoothFit, Step2Config, Step2Method};
 use super::step1::Step1Shape;
 use super::terms::{to_m, to_mm};
+use super::warning::Warning;
 use super::Measurer;
 use crate::gauss_newton::{minimise_vertices, SymbolicCache};
 use crate::lbfgs::{minimise_watched, RunInfo, Termination};
@@ -52,7 +53,7 @@ pub struct Step2Shape {
     /// How the rounds went.
     pub rounds: RoundsSummary,
     /// Things the operator or engineer should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
 }
 
 /// Step 2 as the round driver sees it.
@@ -122,7 +123,7 @@ impl RoundStep for Step2Rounds<'_> {
             &self.p_mm,
             self.config.weighting,
             &mut log.warnings,
-            "step 2",
+            PredictStage::Step2,
         );
         if terms.is_empty() {
             return Ok(RoundEnd::NothingToFit);
@@ -301,10 +302,11 @@ impl ShapeModel {
         if err2 > err1 || err2.is_nan() {
             match step.best.take().filter(|b| b.1 < err1) {
                 Some((round, e, x_mm, measured)) => {
-                    warnings.push(format!(
-                        "step 2 ended with a higher measurement energy than step 1 (E_m {err2:.4e} vs {err1:.4e} mm^4): kept its shape at the start of round {} (E_m {e:.4e})",
-                        round + 1
-                    ));
+                    warnings.push(Warning::Step2KeptEarlier {
+                        end: err2,
+                        step1: err1,
+                        kept_round: Some((round + 1, e)),
+                    });
                     x2 = x_mm
                         .chunks_exact(3)
                         .map(|c| [c[0] / MM_PER_M, c[1] / MM_PER_M, c[2] / MM_PER_M])
@@ -312,9 +314,11 @@ impl ShapeModel {
                     meas2 = measured;
                 }
                 None => {
-                    warnings.push(format!(
-                        "step 2 ended with a higher measurement energy than step 1 (E_m {err2:.4e} vs {err1:.4e} mm^4): kept the step-1 shape"
-                    ));
+                    warnings.push(Warning::Step2KeptEarlier {
+                        end: err2,
+                        step1: err1,
+                        kept_round: None,
+                    });
                     x2.clone_from(&step1.vertices);
                     meas2.clone_from(&step1.measured);
                 }

@@ -7,8 +7,10 @@
 use tapeshape_measure::Measured;
 use tapeshape_mesh::Vec3;
 
+use super::progress::PredictStage;
 use super::readings::Readings;
 use super::settings::EnergyWeighting;
+use super::warning::Warning;
 use crate::energy::{measurement_energy, segment_terms, SegmentTerm};
 use crate::refine::WeightObjective;
 use crate::{ShapeModel, MM_PER_M};
@@ -50,8 +52,8 @@ impl ShapeModel {
         measured: &[Measured],
         x_mm: &[Vec3],
         weighting: (EnergyWeighting, f64),
-        warnings: &mut Vec<String>,
-        stage: &str,
+        warnings: &mut Vec<Warning>,
+        stage: PredictStage,
     ) -> Vec<SegmentTerm> {
         self.build_terms_owned(given, measured, x_mm, weighting, warnings, stage)
             .0
@@ -65,8 +67,8 @@ impl ShapeModel {
         measured: &[Measured],
         x_mm: &[Vec3],
         weighting: (EnergyWeighting, f64),
-        warnings: &mut Vec<String>,
-        stage: &str,
+        warnings: &mut Vec<Warning>,
+        stage: PredictStage,
     ) -> (Vec<SegmentTerm>, Vec<usize>) {
         let (weighting, scale) = weighting;
         let mut terms = Vec::new();
@@ -87,10 +89,10 @@ impl ShapeModel {
                     owner.extend(std::iter::repeat_n(pos, t.len()));
                     terms.extend(t)
                 }
-                None => warnings.push(format!(
-                    "{stage}: measurement '{}' has zero length on the current shape and was left out of this round",
-                    self.measurement_names[g.index]
-                )),
+                None => warnings.push(Warning::ZeroLength {
+                    stage,
+                    measurement: self.measurement_names[g.index].clone(),
+                }),
             }
         }
         (terms, owner)
@@ -118,7 +120,14 @@ impl ShapeModel {
         weighting: (EnergyWeighting, f64),
     ) -> f64 {
         let mut ignored = Vec::new();
-        let terms = self.build_terms(given, measured, x_mm, weighting, &mut ignored, "");
+        let terms = self.build_terms(
+            given,
+            measured,
+            x_mm,
+            weighting,
+            &mut ignored,
+            PredictStage::Done,
+        );
         measurement_energy(&terms, x_mm.as_flattened(), None)
     }
 

@@ -459,3 +459,40 @@ run-internal-error = the interface stopped on an internal error (details in { $p
 
 sim-no-value = the simulated customer has no value for { $name }; take it with Enter instead
 sim-stopped = the simulated tape stopped; start the demo again
+
+## The estimate's warnings (result screen, predict, session show). Each
+## says what the English report's text says (a test holds them together).
+
+warn-no-unit = no unit given for { $names }: read as { $unit }
+warn-unit-mm = millimetres
+warn-unit-cm = centimetres
+warn-unit-m = metres
+warn-unit-in = inches
+warn-kept = kept by the operator: { $what }
+warn-check-reading = { $what }: check this reading
+warn-out-of-range-above = { $name } { $typed } ({ $cm } cm) is { $z } SD above the population the model knows (typical: { $typical }): check the reading and its unit
+warn-out-of-range-below = { $name } { $typed } ({ $cm } cm) is { $z } SD below the population the model knows (typical: { $typical }): check the reading and its unit
+warn-unit-slip = { $name } { $typed } looks like { $unit }: write { $number }{ $symbol } (typical: { $typical })
+warn-unit-slip-bare = { $name } { $typed } looks like { $unit }: write { $number }{ $symbol } (typical: { $typical }); a number without a unit is read as { $bare }
+warn-others-more = { $list } and { $n } more
+warn-against-one-above = { $name } { $cm } cm is { $z } SD above what { $others } predicts ({ $mu } +/- { $sd } cm)
+warn-against-others-above = { $name } { $cm } cm is { $z } SD above what { $others } predict ({ $mu } +/- { $sd } cm)
+warn-against-one-below = { $name } { $cm } cm is { $z } SD below what { $others } predicts ({ $mu } +/- { $sd } cm)
+warn-against-others-below = { $name } { $cm } cm is { $z } SD below what { $others } predict ({ $mu } +/- { $sd } cm)
+warn-unusual-set = unusual set of measurements (Mahalanobis distance { $distance } over { $n } readings, { $percent }% of the population is closer to the mean): the result is plausible but check the readings
+warn-estimated-with-kept = estimated with unusual readings the operator kept ({ $names }): the body fits them as far as a human-looking surface allows; the set's plausibility: { $percent }% of the training population is closer to the mean (Mahalanobis distance { $distance })
+warn-stage-step1 = step 1
+warn-stage-step2 = step 2
+warn-solver-stopped = { $stage } round { $round }: optimiser stopped: { $reason }
+warn-zero-length = { $stage }: measurement '{ $name }' has zero length on the current shape and was left out of this round
+warn-objective-map = MAP objective
+warn-objective-energy = measurement energy E_m (mm^4)
+warn-step1-kept-start = step 1 ended with a higher { $objective } than the start ({ $end } vs { $start }): kept the start shape
+warn-step2-kept-round = step 2 ended with a higher measurement energy than step 1 (E_m { $end } vs { $step1 } mm^4): kept its shape at the start of round { $round } (E_m { $kept })
+warn-step2-kept-step1 = step 2 ended with a higher measurement energy than step 1 (E_m { $end } vs { $step1 } mm^4): kept the step-1 shape
+warn-triangles = step 2 flipped { $flipped } and collapsed { $collapsed } triangles: the measurements may be inconsistent
+warn-far-from-population = the measurements are far from the training population (Mahalanobis distance { $distance } over { $n } measurements): the shape is held to { $sd } SD and may not fit them all
+warn-not-fitted = '{ $name }' could not be fitted within { $limit } mm (error { $error } mm)
+warn-measuring-failed = measuring the measurements not given failed: { $reason }
+refuse-kept-beyond = { $what }; kept by the operator, but beyond any person
+refuse-contradiction = the readings contradict each other: { $list }; re-take these readings, or keep them if they are right (the estimate then fits them as far as a human-looking body allows)

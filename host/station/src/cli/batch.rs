@@ -384,7 +384,7 @@ fn one_row(estimator: &Estimator, row: &Row, out: &Path, format: MeshFormat) -> 
         Ok(e) => e,
         Err(e) => return Outcome::Refused(e.to_string()),
     };
-    let mut value = match serde_json::to_value(&estimate.report) {
+    let mut value = match estimate.report.to_json() {
         Ok(v) => v,
         Err(e) => return Outcome::Refused(format!("encoding the report: {e}")),
     };

@@ -180,7 +180,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         outln!("{s}")?;
     }
     if let Some(path) = &args.report {
-        let mut value = serde_json::to_value(&estimate.report).context("encoding the report")?;
+        let mut value = estimate.report.to_json().context("encoding the report")?;
         if let (Some(s), Some(obj)) = (&sizes, value.as_object_mut()) {
             obj.insert(
                 "sizes".into(),

@@ -311,6 +311,11 @@ impl Services for StationServices {
                         }
                     }
                     Err(estimate::EstimateError::Cancelled(_)) => EstimateEvent::Cancelled,
+                    // A refusal the operator acts on, in the operator's
+                    // language; other failures keep their English text.
+                    Err(estimate::EstimateError::Predict(p)) => EstimateEvent::Failed(
+                        crate::warning_text::refusal_text(&p).unwrap_or_else(|| p.to_string()),
+                    ),
                     Err(e) => EstimateEvent::Failed(e.to_string()),
                 };
                 sink(ev);
@@ -491,7 +496,17 @@ pub fn summarise(
             readings = plausibility_word(&pl.readings),
             distance = format!("{:.1}", pl.readings_mahalanobis)
         ),
-        warnings: report.warnings,
+        // Worded in the operator's language from the codes; a report from
+        // before the codes keeps its English lines.
+        warnings: if report.warning_codes.is_empty() {
+            report.warnings
+        } else {
+            report
+                .warning_codes
+                .iter()
+                .map(crate::warning_text::warning_text)
+                .collect()
+        },
         silhouettes: silhouettes(&stored.vertices),
         seconds: stored.seconds,
         sizes,
