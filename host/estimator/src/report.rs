@@ -76,24 +76,24 @@ impl EstimateReport {
     /// warnings then as text).
     pub fn to_json(&self) -> serde_json::Result<serde_json::Value> {
         let mut value = serde_json::to_value(self)?;
-        let english =
-            |ws: &[Warning]| -> Vec<String> { ws.iter().map(ToString::to_string).collect() };
         if let Some(obj) = value.as_object_mut() {
-            obj.insert(
-                "warnings".into(),
-                serde_json::to_value(english(&self.warnings))?,
-            );
-            obj.insert(
-                "warning_codes".into(),
-                serde_json::to_value(&self.warnings)?,
-            );
+            put_warnings(obj, &self.warnings)?;
             if let Some(p) = obj.get_mut("prediction").and_then(|p| p.as_object_mut()) {
-                let ws = &self.prediction.warnings;
-                let text: Vec<String> = ws.iter().map(ToString::to_string).collect();
-                p.insert("warnings".into(), serde_json::to_value(text)?);
-                p.insert("warning_codes".into(), serde_json::to_value(ws)?);
+                put_warnings(p, &self.prediction.warnings)?;
             }
         }
         Ok(value)
     }
+}
+
+/// Sets `warnings` of `obj` to the English text of `ws` and `warning_codes`
+/// to `ws` coded ([`EstimateReport::to_json`]).
+fn put_warnings<W: std::fmt::Display + Serialize>(
+    obj: &mut serde_json::Map<String, serde_json::Value>,
+    ws: &[W],
+) -> serde_json::Result<()> {
+    let text: Vec<String> = ws.iter().map(ToString::to_string).collect();
+    obj.insert("warnings".into(), serde_json::to_value(text)?);
+    obj.insert("warning_codes".into(), serde_json::to_value(ws)?);
+    Ok(())
 }

@@ -268,7 +268,7 @@ mod tests {
 
     /// One warning of every code (and both branches where a code has two
     /// wordings), with values that show every number's precision.
-    pub(crate) fn every_warning() -> Vec<Warning> {
+    fn every_warning() -> Vec<Warning> {
         let oor = OutOfRange {
             measurement: "neck".into(),
             number: 52.5,
