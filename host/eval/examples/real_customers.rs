@@ -9,6 +9,8 @@
 //! Options: `--set quick|ansur` (the input), `--sex` (give each person's
 //! sex), `--per-sex N` (the first N of each sex by id; default all),
 //! `--leave-out COLUMN` (repeatable: an ANSUR column not entered),
+//! `--model FILE` (a model file instead of the embedded default: measure a
+//! candidate before `scripts/rebuild-default-model.sh` embeds it),
 //! `--out FILE` (the Markdown page; default: print it).
 
 use std::process::ExitCode;
@@ -24,6 +26,7 @@ fn main() -> ExitCode {
         options: tapeshape_estimator::PredictOptions::default(),
     };
     let mut out = None;
+    let mut model: Option<String> = None;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -49,6 +52,7 @@ fn main() -> ExitCode {
             }
             "--leave-out" => value("an ANSUR column").map(|v| opts.leave_out.push(v)),
             "--out" => value("a file").map(|v| out = Some(v)),
+            "--model" => value("a model file").map(|v| model = Some(v)),
             other => Err(format!("unknown argument {other} (see the file's docs)")),
         };
         if let Err(e) = r {
@@ -56,7 +60,18 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     }
-    let estimator = match tapeshape_estimator::Estimator::default_model() {
+    let owned;
+    let loaded = match &model {
+        None => tapeshape_estimator::Estimator::default_model(),
+        Some(path) => match tapeshape_estimator::Estimator::load(std::path::Path::new(path)) {
+            Ok(e) => {
+                owned = e;
+                Ok(&owned)
+            }
+            Err(e) => Err(e),
+        },
+    };
+    let estimator = match loaded {
         Ok(e) => e,
         Err(e) => {
             eprintln!("error: {e}");
@@ -75,13 +90,22 @@ fn main() -> ExitCode {
         args.join(" ")
     );
     let page = markdown(&result, &opts, &command);
-    let (b, s, p) = result.overall();
     let (iso, _) = result.iso_pass();
+    let held = if result.dims.is_empty() {
+        "no dimension held out".to_string()
+    } else {
+        let (b, s, p) = result.overall();
+        let (nf, bf, sf, worst, worst_col) = result.overall_followable();
+        format!(
+            "other dims MAE: body {b:.2} mm, LS with sex {s:.2}, pooled {p:.2}, ratio {:.3} | the {nf} the mesh can follow: {bf:.2} / {sf:.2} = {:.3}, worst {worst_col} {worst:.2} x",
+            b / s,
+            bf / sf
+        )
+    };
     eprintln!(
-        "people {} refused {} | other dims MAE: body {b:.2} mm, LS with sex {s:.2}, pooled {p:.2}, ratio {:.3} | ISO {:.1} % | {:.0} s",
+        "people {} refused {} | {held} | ISO {:.1} % | {:.0} s",
         result.people.len(),
         result.refused(),
-        b / s,
         100.0 * iso,
         result.seconds
     );
