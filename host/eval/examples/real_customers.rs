@@ -96,10 +96,17 @@ fn main() -> ExitCode {
     } else {
         let (b, s, p) = result.overall();
         let (nf, bf, sf, worst, worst_col) = result.overall_followable();
+        let followable = if nf == 0 {
+            "none the mesh can follow".to_string()
+        } else {
+            format!(
+                "the {nf} the mesh can follow: {bf:.2} / {sf:.2} = {:.3}, worst {worst_col} {worst:.2} x",
+                bf / sf
+            )
+        };
         format!(
-            "other dims MAE: body {b:.2} mm, LS with sex {s:.2}, pooled {p:.2}, ratio {:.3} | the {nf} the mesh can follow: {bf:.2} / {sf:.2} = {:.3}, worst {worst_col} {worst:.2} x",
-            b / s,
-            bf / sf
+            "other dims MAE: body {b:.2} mm, LS with sex {s:.2}, pooled {p:.2}, ratio {:.3} | {followable}",
+            b / s
         )
     };
     eprintln!(

@@ -400,15 +400,22 @@ Regressions fitted on {} ANSUR II train-split subjects.\n",
         let _ = writeln!(s, "| least squares, pooled | {op:.2} |");
         let _ = writeln!(s, "| ratio body / with sex | {:.3} |\n", b / os);
         let (nf, bf, osf, worst, worst_col) = run.overall_followable();
-        let _ = writeln!(
-            s,
-            "Over the {nf} of them the standing mesh can measure as ANSUR II defines them \
+        if nf == 0 {
+            let _ = writeln!(
+                s,
+                "None of them is one the standing mesh can measure as ANSUR II defines it.\n"
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "Over the {nf} of them the standing mesh can measure as ANSUR II defines them \
 (all but {}: flexed girths and calipers that compress the tissue, \
 docs/measurements.md): body **{bf:.2}** mm, least squares with sex {osf:.2} mm, \
 ratio **{:.3}**; the worst of them {worst_col} at {worst:.2} x.\n",
-            CANNOT_FOLLOW_ANSUR.join(", "),
-            bf / osf
-        );
+                CANNOT_FOLLOW_ANSUR.join(", "),
+                bf / osf
+            );
+        }
         let _ = writeln!(
             s,
             "| dimension | body mm | body bias mm | LS with sex mm | LS pooled mm | ratio |\n|---|---|---|---|---|---|"
@@ -484,5 +491,28 @@ mod tests {
         assert!((worst - 5.0).abs() < 1e-12);
         // The full mean still counts every dimension.
         assert!((run.overall().0 - 35.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_run_holding_out_only_what_the_mesh_cannot_follow_says_so() {
+        let run = CustomersRun {
+            people: Vec::new(),
+            dims: vec![row("chestbreadth", 60.0, 10.0)],
+            names: Vec::new(),
+            tolerance_mm: Vec::new(),
+            n_train: 0,
+            seconds: 0.0,
+        };
+        assert_eq!(run.overall_followable().0, 0);
+        let opts = CustomersOptions {
+            input_set: "ansur".into(),
+            with_sex: true,
+            per_sex: None,
+            leave_out: vec!["chestbreadth".into()],
+            options: PredictOptions::default(),
+        };
+        let page = markdown(&run, &opts, "cmd");
+        assert!(page.contains("None of them is one the standing mesh can measure"));
+        assert!(!page.contains("NaN"), "{page}");
     }
 }
