@@ -469,21 +469,26 @@ mod tests {
         }
     }
 
-    #[test]
-    fn followable_leaves_out_exactly_what_the_mesh_cannot_follow() {
-        let run = CustomersRun {
+    /// A run with nobody in it and these held-out dimensions.
+    fn run_of(dims: Vec<DimRow>) -> CustomersRun {
+        CustomersRun {
             people: Vec::new(),
-            dims: vec![
-                row("stature", 10.0, 10.0),
-                row("chestbreadth", 60.0, 10.0),
-                row("hipbreadth", 30.0, 6.0),
-                row("forearmcircumferenceflexed", 40.0, 8.0),
-            ],
+            dims,
             names: Vec::new(),
             tolerance_mm: Vec::new(),
             n_train: 0,
             seconds: 0.0,
-        };
+        }
+    }
+
+    #[test]
+    fn followable_leaves_out_exactly_what_the_mesh_cannot_follow() {
+        let run = run_of(vec![
+            row("stature", 10.0, 10.0),
+            row("chestbreadth", 60.0, 10.0),
+            row("hipbreadth", 30.0, 6.0),
+            row("forearmcircumferenceflexed", 40.0, 8.0),
+        ]);
         let (n, body, ols, worst, col) = run.overall_followable();
         assert_eq!(n, 2, "chest breadth and the flexed forearm are out");
         assert!((body - 20.0).abs() < 1e-12 && (ols - 8.0).abs() < 1e-12);
@@ -495,14 +500,7 @@ mod tests {
 
     #[test]
     fn a_run_holding_out_only_what_the_mesh_cannot_follow_says_so() {
-        let run = CustomersRun {
-            people: Vec::new(),
-            dims: vec![row("chestbreadth", 60.0, 10.0)],
-            names: Vec::new(),
-            tolerance_mm: Vec::new(),
-            n_train: 0,
-            seconds: 0.0,
-        };
+        let run = run_of(vec![row("chestbreadth", 60.0, 10.0)]);
         assert_eq!(run.overall_followable().0, 0);
         let opts = CustomersOptions {
             input_set: "ansur".into(),
