@@ -95,14 +95,17 @@ fn main() -> ExitCode {
         "no dimension held out".to_string()
     } else {
         let (b, s, p) = result.overall();
-        let (nf, bf, sf, worst, worst_col) = result.overall_followable();
-        let followable = if nf == 0 {
-            "none the mesh can follow".to_string()
-        } else {
-            format!(
-                "the {nf} the mesh can follow: {bf:.2} / {sf:.2} = {:.3}, worst {worst_col} {worst:.2} x",
-                bf / sf
-            )
+        let followable = match result.overall_followable() {
+            None => "none the mesh can follow".to_string(),
+            Some(f) => format!(
+                "the {} the mesh can follow: {:.2} / {:.2} = {:.3}, worst {} {:.2} x",
+                f.count,
+                f.body_mm,
+                f.ols_sex_mm,
+                f.ratio(),
+                f.worst_column,
+                f.worst_ratio
+            ),
         };
         format!(
             "other dims MAE: body {b:.2} mm, LS with sex {s:.2}, pooled {p:.2}, ratio {:.3} | {followable}",

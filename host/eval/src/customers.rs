@@ -99,6 +99,29 @@ pub struct CustomersRun {
     pub seconds: f64,
 }
 
+/// Mean absolute errors over the held-out dimensions the standing mesh can
+/// measure as ANSUR II defines them ([`CustomersRun::overall_followable`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FollowableSummary {
+    /// How many such dimensions were held out (at least 1).
+    pub count: usize,
+    /// The body's mean absolute error over them, mm.
+    pub body_mm: f64,
+    /// Least squares with sex, mean absolute error over them, mm.
+    pub ols_sex_mm: f64,
+    /// The largest per-dimension ratio body / least squares with sex.
+    pub worst_ratio: f64,
+    /// The ANSUR II column of that ratio.
+    pub worst_column: String,
+}
+
+impl FollowableSummary {
+    /// Body MAE over least-squares-with-sex MAE (issue 12's target: at most 1.10).
+    pub fn ratio(&self) -> f64 {
+        self.body_mm / self.ols_sex_mm
+    }
+}
+
 impl CustomersRun {
     /// Mean over the held-out dimensions of (body, ols with sex, pooled), mm.
     pub fn overall(&self) -> (f64, f64, f64) {
@@ -121,24 +144,21 @@ impl CustomersRun {
             .filter(|d| !CANNOT_FOLLOW_ANSUR.contains(&d.column.as_str()))
     }
 
-    /// Over [`CustomersRun::followable`]: (count, body MAE, least squares
-    /// with sex MAE, the worst body / least-squares ratio and its column),
-    /// mm.
-    pub fn overall_followable(&self) -> (usize, f64, f64, f64, String) {
+    /// The summary over [`CustomersRun::followable`]; `None` when the run
+    /// holds out none of them.
+    pub fn overall_followable(&self) -> Option<FollowableSummary> {
         let rows: Vec<&DimRow> = self.followable().collect();
-        let n = rows.len().max(1) as f64;
         let worst = rows
             .iter()
-            .map(|d| (d.body / d.ols_sex, d.column.clone()))
-            .max_by(|a, b| a.0.total_cmp(&b.0))
-            .unwrap_or((f64::NAN, String::new()));
-        (
-            rows.len(),
-            rows.iter().map(|d| d.body).sum::<f64>() / n,
-            rows.iter().map(|d| d.ols_sex).sum::<f64>() / n,
-            worst.0,
-            worst.1,
-        )
+            .max_by(|a, b| (a.body / a.ols_sex).total_cmp(&(b.body / b.ols_sex)))?;
+        let n = rows.len() as f64;
+        Some(FollowableSummary {
+            count: rows.len(),
+            body_mm: rows.iter().map(|d| d.body).sum::<f64>() / n,
+            ols_sex_mm: rows.iter().map(|d| d.ols_sex).sum::<f64>() / n,
+            worst_ratio: worst.body / worst.ols_sex,
+            worst_column: worst.column.clone(),
+        })
     }
 
     /// People refused.
@@ -399,22 +419,29 @@ Regressions fitted on {} ANSUR II train-split subjects.\n",
         let _ = writeln!(s, "| least squares with sex | {os:.2} |");
         let _ = writeln!(s, "| least squares, pooled | {op:.2} |");
         let _ = writeln!(s, "| ratio body / with sex | {:.3} |\n", b / os);
-        let (nf, bf, osf, worst, worst_col) = run.overall_followable();
-        if nf == 0 {
-            let _ = writeln!(
-                s,
-                "None of them is one the standing mesh can measure as ANSUR II defines it.\n"
-            );
-        } else {
-            let _ = writeln!(
-                s,
-                "Over the {nf} of them the standing mesh can measure as ANSUR II defines them \
+        match run.overall_followable() {
+            None => {
+                let _ = writeln!(
+                    s,
+                    "None of them is one the standing mesh can measure as ANSUR II defines it.\n"
+                );
+            }
+            Some(f) => {
+                let _ = writeln!(
+                    s,
+                    "Over the {} of them the standing mesh can measure as ANSUR II defines them \
 (all but {}: flexed girths and calipers that compress the tissue, \
-docs/measurements.md): body **{bf:.2}** mm, least squares with sex {osf:.2} mm, \
-ratio **{:.3}**; the worst of them {worst_col} at {worst:.2} x.\n",
-                CANNOT_FOLLOW_ANSUR.join(", "),
-                bf / osf
-            );
+docs/measurements.md): body **{:.2}** mm, least squares with sex {:.2} mm, \
+ratio **{:.3}**; the worst of them {} at {:.2} x.\n",
+                    f.count,
+                    CANNOT_FOLLOW_ANSUR.join(", "),
+                    f.body_mm,
+                    f.ols_sex_mm,
+                    f.ratio(),
+                    f.worst_column,
+                    f.worst_ratio
+                );
+            }
         }
         let _ = writeln!(
             s,
@@ -489,11 +516,12 @@ mod tests {
             row("hipbreadth", 30.0, 6.0),
             row("forearmcircumferenceflexed", 40.0, 8.0),
         ]);
-        let (n, body, ols, worst, col) = run.overall_followable();
-        assert_eq!(n, 2, "chest breadth and the flexed forearm are out");
-        assert!((body - 20.0).abs() < 1e-12 && (ols - 8.0).abs() < 1e-12);
-        assert_eq!(col, "hipbreadth");
-        assert!((worst - 5.0).abs() < 1e-12);
+        let f = run.overall_followable().expect("two followable dimensions");
+        assert_eq!(f.count, 2, "chest breadth and the flexed forearm are out");
+        assert!((f.body_mm - 20.0).abs() < 1e-12 && (f.ols_sex_mm - 8.0).abs() < 1e-12);
+        assert!((f.ratio() - 2.5).abs() < 1e-12);
+        assert_eq!(f.worst_column, "hipbreadth");
+        assert!((f.worst_ratio - 5.0).abs() < 1e-12);
         // The full mean still counts every dimension.
         assert!((run.overall().0 - 35.0).abs() < 1e-12);
     }
@@ -501,7 +529,7 @@ mod tests {
     #[test]
     fn a_run_holding_out_only_what_the_mesh_cannot_follow_says_so() {
         let run = run_of(vec![row("chestbreadth", 60.0, 10.0)]);
-        assert_eq!(run.overall_followable().0, 0);
+        assert_eq!(run.overall_followable(), None);
         let opts = CustomersOptions {
             input_set: "ansur".into(),
             with_sex: true,
