@@ -10,6 +10,7 @@
 
 use tapeshape_measure::MeasurementSet;
 use tapeshape_population::ansur::{Ansur, Sex, Split};
+use tapeshape_population::statistics::mean_sd_corr;
 
 /// Arm loop members of the right arm in paper34 (their sum is the loop).
 const RIGHT_LOOP: [&str; 4] = [
@@ -22,17 +23,20 @@ const RIGHT_LOOP: [&str; 4] = [
 /// A body counts as "at the limit" when both muscle and weight are at least this.
 const AT_LIMIT: f64 = 0.95;
 
+/// Mean +- SD (the population statistics' own [`mean_sd_corr`]), the 5 % and
+/// 95 % points and the largest value, cm.
 fn summary(v: &mut [f64]) -> String {
     if v.is_empty() {
         return "none".into();
     }
     v.sort_by(f64::total_cmp);
-    let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
-    let q = |p: f64| v[((p * (n - 1.0)).round() as usize).min(v.len() - 1)];
+    let rows: Vec<Vec<f64>> = v.iter().map(|&x| vec![x]).collect();
+    let (mean, sd, _) = mean_sd_corr(&rows);
+    let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
     format!(
-        "{mean:.1} +- {sd:.1} cm (5 % {:.1}, 95 % {:.1}, max {:.1})",
+        "{:.1} +- {:.1} cm (5 % {:.1}, 95 % {:.1}, max {:.1})",
+        mean[0],
+        sd[0],
         q(0.05),
         q(0.95),
         v[v.len() - 1]
