@@ -8,7 +8,7 @@
 //! # the paper's S_real: train on a population, predict held-out bodies from paper34
 //! cargo run --release -p tapeshape-estimator --example predict_eval -- sreal \
 //!     --train /work/out/pop400s1.tsd --heldout /work/out/held60s2.tsd --n 50 \
-//!     [--model host/estimator/models/default.tsm.gz]
+//!     [--model host/estimator/models/default.tsm.gz] [--keep-all (every reading kept by the operator)]
 //! # ISO 20685-1 pass shares for quick and ansur (generated bodies and ANSUR test subjects)
 //! cargo run --release -p tapeshape-estimator --example predict_eval -- iso \
 //!     --heldout /work/out/held60s2.tsd --n 50 --ansur 100 --subsets 3 [--model FILE] [--l 3]
@@ -162,6 +162,10 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             e,
         ));
     }
+    // As if the operator kept every reading after a flag (issue 12, item 6):
+    // a held-out body outside the model's population is then estimated
+    // with a warning instead of refused.
+    let keep_all = args.iter().any(|a| a == "--keep-all");
     let base = settings_from_args(args)?;
     println!(
         "\nS_real: {n} held-out generated bodies, inputs = their paper34 values, settings l = {}, lambda = {}, s = {}, step 1 {:?} weighted {:?}, step-1 components {:?}\n",
@@ -243,6 +247,9 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 let mut inputs = Inputs::new();
                 for (name, v) in names.iter().zip(&truth) {
                     inputs.insert_metres(name, *v)?;
+                }
+                if keep_all {
+                    inputs.kept = names.clone();
                 }
                 let t0 = Instant::now();
                 let est = estimator.predict(&inputs, &settings)?;
