@@ -317,6 +317,26 @@ impl SexDimensions {
     }
 }
 
+/// A fit record's achieved value differs from the stored mesh's "notably"
+/// above this (mm): f32 storage alone gives about 0.001 mm.
+pub const RECORD_GAP_MM: f64 = 0.1;
+
+/// One fitted dimension re-measured on the stored meshes against the fit
+/// records' achieved values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RecordGap {
+    /// Measurement name.
+    pub dimension: String,
+    /// Bodies whose fit record holds the dimension.
+    pub n_bodies: usize,
+    /// Largest |mesh value - achieved value| (mm).
+    pub max_mm: f64,
+    /// The body with the largest difference.
+    pub worst_body: String,
+    /// Bodies whose difference exceeds [`RECORD_GAP_MM`].
+    pub n_over: usize,
+}
+
 /// The whole comparison: the dimensions, then one block per sex with at
 /// least three bodies.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -325,11 +345,12 @@ pub struct DimensionReport {
     pub dimensions: Vec<Dimension>,
     /// The fit scope the file's header records (`None`: not recorded).
     pub fit_scope: Option<FitScope>,
-    /// Largest |value measured on the stored mesh - the fit record's
-    /// achieved value| over every body and fitted dimension (mm; `None`
-    /// without fit records): a check that the file's meshes are the fitted
-    /// ones (f32 storage alone gives micrometres).
-    pub max_record_gap_mm: Option<f64>,
+    /// Per fitted dimension, the value measured on the stored mesh against
+    /// the fit record's achieved value: a check that the file's meshes
+    /// measure as the fitter saw them (f32 storage alone moves a value by
+    /// micrometres; more means a measurement that jumps under round-off).
+    /// Dimensions without fit records are left out.
+    pub record_gaps: Vec<RecordGap>,
     /// Male, then female (a sex with fewer than three bodies is left out).
     pub sexes: Vec<SexDimensions>,
     /// Bodies left out of part of the report.
@@ -401,7 +422,16 @@ pub fn dimension_statistics(
         .collect();
 
     let mut skipped = Vec::new();
-    let mut max_record_gap_mm: Option<f64> = None;
+    let mut record_gaps: Vec<RecordGap> = dimensions
+        .iter()
+        .map(|d| RecordGap {
+            dimension: d.name.clone(),
+            n_bodies: 0,
+            max_mm: 0.0,
+            worst_body: String::new(),
+            n_over: 0,
+        })
+        .collect();
     let mut per_sex: Vec<(Sex, Vec<Vec<f64>>, Vec<IsoBody>)> = Vec::new();
     for sex in [Sex::Male, Sex::Female] {
         per_sex.push((sex, Vec::new(), Vec::new()));
@@ -427,10 +457,15 @@ pub fn dimension_statistics(
             continue;
         };
         if let Some(fit) = &rec.fit {
-            for (d, v) in dimensions.iter().zip(&values) {
+            for ((d, v), g) in dimensions.iter().zip(&values).zip(&mut record_gaps) {
                 if let Some(a) = fit.achieved_mm.get(&d.column) {
                     let gap = (v * 1000.0 - a).abs();
-                    max_record_gap_mm = Some(max_record_gap_mm.map_or(gap, |g| g.max(gap)));
+                    g.n_bodies += 1;
+                    g.n_over += usize::from(gap > RECORD_GAP_MM);
+                    if gap > g.max_mm || g.worst_body.is_empty() {
+                        g.max_mm = gap;
+                        g.worst_body = rec.name.clone();
+                    }
                 }
             }
         }
@@ -516,7 +551,7 @@ pub fn dimension_statistics(
     Ok(DimensionReport {
         dimensions,
         fit_scope,
-        max_record_gap_mm,
+        record_gaps: record_gaps.into_iter().filter(|g| g.n_bodies > 0).collect(),
         sexes,
         skipped,
         notes,
@@ -635,10 +670,28 @@ pub fn dimension_markdown(report: &DimensionReport) -> String {
             String::new()
         }
     );
-    if let Some(g) = report.max_record_gap_mm {
+    if let Some(worst) = report
+        .record_gaps
+        .iter()
+        .max_by(|a, b| a.max_mm.total_cmp(&b.max_mm))
+    {
+        let over: Vec<String> = report
+            .record_gaps
+            .iter()
+            .filter(|g| g.n_over > 0)
+            .map(|g| format!("{} on {} of {} bodies", g.dimension, g.n_over, g.n_bodies))
+            .collect();
         let _ = writeln!(
             s,
-            "\nLargest difference between a fitted dimension measured on the stored mesh and the fit record's achieved value: {g:.3} mm."
+            "\nFitted dimensions re-measured on the stored meshes against the fit records' achieved values: largest difference {:.3} mm ({}, {}); more than {RECORD_GAP_MM} mm: {}.",
+            worst.max_mm,
+            worst.dimension,
+            worst.worst_body,
+            if over.is_empty() {
+                "none".to_string()
+            } else {
+                over.join(", ")
+            }
         );
     }
     for st in &report.sexes {
@@ -932,11 +985,11 @@ mod tests {
             .collect();
         assert_eq!(marked, vec!["chestbreadth"]);
         // In-memory meshes are the fitted ones: measured = achieved.
-        assert!(
-            r.max_record_gap_mm.unwrap() < 1e-6,
-            "{:?}",
-            r.max_record_gap_mm
-        );
+        assert_eq!(r.record_gaps.len(), crate::FIT_TARGETS.len());
+        for g in &r.record_gaps {
+            assert_eq!((g.n_bodies, g.n_over), (8, 0), "{g:?}");
+            assert!(g.max_mm < 1e-6, "{g:?}");
+        }
         assert!(r.skipped.is_empty(), "{:?}", r.skipped);
         assert_eq!(r.sexes.len(), 2, "seed 11 gives 4 bodies of each sex");
         let n: usize = r.sexes.iter().map(|s| s.n_bodies).sum();
@@ -997,6 +1050,24 @@ mod tests {
         let md = dimension_markdown(&r);
         assert_eq!(md.matches("\n| stature |").count(), r.sexes.len(), "{md}");
         assert!(md.contains("| chestbreadth * |"), "{md}");
+
+        // A fit record that does not measure as its mesh is pointed out.
+        let mut shifted = d.clone();
+        let fit = shifted.header.bodies[2].fit.as_mut().unwrap();
+        *fit.achieved_mm.get_mut("stature").unwrap() += 5.0;
+        let rs = dimension_statistics(&shifted, &[]).unwrap();
+        let g = rs
+            .record_gaps
+            .iter()
+            .find(|g| g.dimension == "stature")
+            .unwrap();
+        assert_eq!((g.n_over, g.worst_body.as_str()), (1, "body-0002"));
+        assert!((g.max_mm - 5.0).abs() < 1e-6, "{g:?}");
+        assert!(
+            dimension_markdown(&rs).contains("stature on 1 of 8 bodies"),
+            "{}",
+            dimension_markdown(&rs)
+        );
 
         // A body whose subject is not in ANSUR II is noted and left out of
         // the comparison with subjects only.
