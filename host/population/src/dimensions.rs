@@ -382,6 +382,13 @@ pub fn dimension_statistics(
             dataset.topology.n_vertices()
         )));
     }
+    if dataset.header.bodies.len() != dataset.bodies.len() {
+        return Err(DatasetError::Settings(format!(
+            "the dataset has {} body records but {} meshes; rewrite it with `tapeshape dataset generate`",
+            dataset.header.bodies.len(),
+            dataset.bodies.len()
+        )));
+    }
     let ansur = Ansur::get()?;
     let set = MeasurementSet::builtin("ansur")?
         .compile(body.topology(), &tapeshape_body::anatomy::anatomy())?;
@@ -452,7 +459,7 @@ pub fn dimension_statistics(
             skipped.push(SkippedBody {
                 name: rec.name.clone(),
                 everywhere: true,
-                reason: "its record has no sex, and every comparison is per sex".into(),
+                reason: "its record has no sex, and every comparison is per sex: left out of everything (compare populations made by `tapeshape dataset generate`)".into(),
             });
             continue;
         };
@@ -1083,6 +1090,16 @@ mod tests {
         assert!(r2.sexes.iter().all(|s| s.correlation_followable.is_none()));
         assert!(dimension_markdown(&r2).contains("not in the embedded ANSUR II"));
 
+        // A body without a sex is left out of everything, with a note.
+        let mut sexless = d.clone();
+        sexless.header.bodies[1].sex = None;
+        let r3 = dimension_statistics(&sexless, &[]).unwrap();
+        assert_eq!(r3.sexes.iter().map(|s| s.n_bodies).sum::<usize>(), 7);
+        assert!(r3
+            .skipped
+            .iter()
+            .any(|b| b.name == "body-0001" && b.everywhere));
+
         // Bad parameters and foreign datasets are errors that say so.
         let e = dimension_statistics(&d, &["chestbreath"])
             .unwrap_err()
@@ -1093,6 +1110,10 @@ mod tests {
             std::sync::Arc::new(tapeshape_mesh::Topology::new(3, vec![[0, 1, 2]]).unwrap());
         let e = dimension_statistics(&tiny, &[]).unwrap_err().to_string();
         assert!(e.contains("template topology"), "{e}");
+        let mut short = d.clone();
+        short.bodies.pop();
+        let e = dimension_statistics(&short, &[]).unwrap_err().to_string();
+        assert!(e.contains("8 body records but 7 meshes"), "{e}");
     }
 
     /// Bodies of a sex with fewer than three (left out of the blocks).
