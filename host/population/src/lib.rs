@@ -15,13 +15,15 @@
 //! | [`faces`] | face datasets (the head region) and the anatomy remapped onto it |
 //! | [`import`] | a folder of the user's registered OBJ/PLY meshes as a dataset |
 //! | [`format`] | the dataset file format (`.tsd`) and [`Dataset`] in memory |
-//! | [`statistics`] | a population's statistics beside ANSUR II's |
+//! | [`statistics`] | a population's statistics beside ANSUR II's (issue 3's four checked dimensions) |
+//! | [`dimensions`] | every `ansur` dimension beside ANSUR II, and each body against its own subject within ISO 20685-1 (issue 12) |
 //! | [`seeded`] | random draws whose streams do not change with the `rand` release |
 //!
 //! Units: metres inside, station frame (Z up, feet at z = 0, +Y front, +X the
 //! body's right).
 
 pub mod ansur;
+pub mod dimensions;
 mod error;
 pub mod faces;
 pub mod fit;
@@ -31,6 +33,7 @@ pub mod import;
 pub mod seeded;
 pub mod statistics;
 
+pub use dimensions::{dimension_markdown, dimension_statistics, DimensionReport};
 pub use error::DatasetError;
 pub use faces::{face_local_changes, generate_faces, head_region, remap_anatomy, FACE_REGIONS};
 pub use format::{

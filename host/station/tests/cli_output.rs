@@ -1,11 +1,14 @@
 //! What the commands print, with the real binary: a closed pipe ends a
-//! command quietly (`tapeshape predict --list | head`), and a name one
-//! command prints is one the other accepts (`measure --json` -> `predict`).
+//! command quietly (`tapeshape predict --list | head`), a name one
+//! command prints is one the other accepts (`measure --json` -> `predict`),
+//! and `dataset stats --all` prints every dimension as Markdown or JSON.
 
 mod common;
 
 use std::path::Path;
 use std::process::Stdio;
+
+use tapeshape_estimator::priors::CANNOT_FOLLOW_ANSUR;
 
 /// Runs `tapeshape args` with its stdout a pipe whose reading end is
 /// already closed (what `| head` leaves once it has its lines): every write
@@ -201,4 +204,75 @@ fn predict_with_a_size_chart_prints_and_reports_the_sizes() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(err.contains("chst") && err.contains("chest"), "{err}");
+}
+
+/// `dataset stats --all` on a small population: Markdown with issue 3's
+/// block then every `ansur` dimension (the unfollowable ones marked), JSON
+/// with both parts; on a dataset that is not a population it refuses and
+/// says what to give instead.
+#[test]
+fn dataset_stats_all_prints_every_dimension() {
+    let tmp = tempfile::tempdir().unwrap();
+    let settings = tapeshape_population::PopulationSettings {
+        n: 8,
+        seed: 11,
+        ..Default::default()
+    };
+    let mut d = tapeshape_population::generate_population(&settings, &|_, _| {}).unwrap();
+    let file = tmp.path().join("pop.tsd");
+    d.write(&file).unwrap();
+    let file_arg = file.to_str().unwrap();
+
+    let out = common::tapeshape(tmp.path(), &["dataset", "stats", file_arg, "--all"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let issue3 = stdout.find("Worst: mean").expect("issue 3's block");
+    let every = stdout.find("### Every `ansur` dimension").expect(&stdout);
+    assert!(issue3 < every, "{stdout}");
+    for marked in CANNOT_FOLLOW_ANSUR {
+        assert!(
+            stdout.contains(&format!("| {marked} * |")),
+            "{marked}: {stdout}"
+        );
+    }
+    assert!(stdout.contains("Within ISO 20685-1 of their own subject"));
+
+    let out = common::tapeshape(
+        tmp.path(),
+        &["dataset", "stats", file_arg, "--all", "--json"],
+    )
+    .output()
+    .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["checked"].as_array().unwrap().len(), 2);
+    let all = &v["all_dimensions"];
+    let k = all["dimensions"].as_array().unwrap().len();
+    assert!(k >= 40, "{k} dimensions");
+    for st in all["sexes"].as_array().unwrap() {
+        assert_eq!(st["mean_mm"].as_array().unwrap().len(), k);
+        assert_eq!(st["correlation"]["n_pairs"], k * (k - 1) / 2);
+        assert_eq!(st["iso"]["n_judged"], st["n_bodies"]);
+    }
+
+    // Not a population: a clear refusal, not a panic or silence.
+    d.header.kind = tapeshape_population::DatasetKind::Imported;
+    d.write(&file).unwrap();
+    let out = common::tapeshape(tmp.path(), &["dataset", "stats", file_arg, "--all"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("drop --all"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
 }
