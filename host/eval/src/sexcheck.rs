@@ -18,13 +18,11 @@
 //! * the **torso shape**: chest, waist and buttock girths, chest height and
 //!   buttock depth, each divided by stature, so that it reads the shape of
 //!   the torso and not its size (a small man is not given a "female chest"
-//!   because he is small). Chest breadth and hip breadth would be obvious
-//!   further torso dimensions, but the mesh does not measure them as ANSUR
-//!   does yet (20-70 mm off, `NOT_YET_ANSUR`): on the estimate they would
-//!   read the definitions' difference as a sex difference. Chest depth and
-//!   waist breadth and depth follow ANSUR since the default model's
-//!   population is fitted on them (2026-12-03); they count on the whole-body
-//!   axis, and the torso axis is kept as it was measured.
+//!   because he is small). Chest breadth and depth, waist breadth and depth
+//!   and hip breadth would be the obvious further torso dimensions, but the
+//!   mesh does not measure them as ANSUR does yet (20-50 mm off,
+//!   `NOT_YET_ANSUR`): on the estimate they would read the definitions'
+//!   difference as a sex difference.
 //!
 //! Both are fitted on standardised values (each feature's pooled train
 //! mean and SD), so the score does not depend on the unit. The score is
