@@ -47,8 +47,8 @@
 //! Jacobian).
 //!
 //! Reproducibility: the population's files must stay byte-identical for the
-//! same recipe (`tapeshape dataset generate --n 2100 --seed 1 --fit ansur`
-//! is the embedded model's), so the order of every sum here is fixed; change it only
+//! same recipe (`tapeshape dataset generate --n 400 --seed 1` is the
+//! embedded model's), so the order of every sum here is fixed; change it only
 //! knowing that it changes every generated population.
 
 use nalgebra::{DMatrix, DVector};

@@ -2,8 +2,7 @@
 //!
 //! Why this module: a dataset file records its seed and promises that the same
 //! seed and settings give the same file (`tapeshape dataset generate`), the
-//! embedded default model is trained on the population of `--n 2100 --seed 1
-//! --fit ansur`,
+//! embedded default model is trained on the population of `--n 400 --seed 1`,
 //! and the prediction experiments draw their random reading subsets from a
 //! seed. Those streams must therefore not move when `rand` changes how it
 //! turns random words into a value, and rand 0.9 changed two of the rules we
