@@ -21,14 +21,16 @@
 //! `figure` draws 12 test-split people (6 per sex at the 0, 20, 40, 60, 80
 //! and 100 % points of their sex's weight order, smallest to largest),
 //! front and side, estimated from their `quick` and from their `ansur`
-//! readings, with each body's verdict under the calibrated rule.
+//! readings, with each body's verdict under the calibrated rule: `--out
+//! FILE.png` the quick set, `FILE-ansur44.png` the full ansur set, and with
+//! `--leave-out` `FILE-ansurN.png` the reduced one.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
-use tapeshape_body::render::View;
+use tapeshape_body::render::{vstack, View};
 use tapeshape_estimator::{Estimator, Inputs, PredictOptions};
 use tapeshape_eval::customers::{entered_readings, inputs_of, test_people, CustomersOptions};
 use tapeshape_eval::figures::{body_views, common_region, expand, grid, label, save, Paint};
@@ -164,6 +166,13 @@ fn calibrate(a: &Args) -> Result<()> {
             rule.delta / DEG,
             100.0 * rule.max_share
         );
+        let mut parts = std::collections::BTreeMap::<String, usize>::new();
+        for f in &folds {
+            for (k, n) in env.beyond_by_part(f, rule.delta, &tapeshape_body::anatomy::anatomy()) {
+                *parts.entry(k).or_default() += n;
+            }
+        }
+        println!("held-out edges beyond envelope + margin, by part (all bodies): {parts:?}");
         if a.synthetic > 0 {
             for set in ["quick", "ansur"] {
                 let names = est.set_members(set)?;
@@ -203,6 +212,13 @@ fn calibrate(a: &Args) -> Result<()> {
         let entered = entered_readings(est, &opts)?;
         let body = est.predict(&inputs_of(s, &entered, true), &opts.options)?;
         let folds = env.edges().folds(&body.mesh.vertices)?;
+        let rule = SurfaceRule::CALIBRATED;
+        println!(
+            "\nsubject 10032, {set} ({} readings): edges beyond envelope + {:.0} deg by part: {:?}",
+            entered.len(),
+            rule.delta / DEG,
+            env.beyond_by_part(&folds, rule.delta, &tapeshape_body::anatomy::anatomy())
+        );
         table(
             &format!(
                 "subject 10032, {set} ({} readings), with sex",
@@ -239,8 +255,7 @@ fn figure(a: &Args) -> Result<()> {
     let all = test_people(ansur, None);
     let mut chosen = pick(&all, Sex::Male);
     chosen.extend(pick(&all, Sex::Female));
-    // bodies[set][person]
-    let mut rows = Vec::new();
+    // Per input set: (name, readings entered, per person (body, verdict)).
     let mut bodies = Vec::new();
     for (set, leave_out) in variants(&a.leave_out) {
         let opts = CustomersOptions {
@@ -256,12 +271,18 @@ fn figure(a: &Args) -> Result<()> {
             .map(|s| -> Result<_> {
                 let body = est.predict(&inputs_of(s, &entered, true), &opts.options)?;
                 let verdict = check.judge(&body.mesh.vertices)?;
-                Ok((body.mesh.vertices, verdict))
+                let folds = check.envelope.edges().folds(&body.mesh.vertices)?;
+                let parts = check.envelope.beyond_by_part(
+                    &folds,
+                    check.rule.delta,
+                    &tapeshape_body::anatomy::anatomy(),
+                );
+                Ok((body.mesh.vertices, verdict, parts))
             })
             .collect::<Result<_>>()?;
-        for (s, (_, v)) in chosen.iter().zip(&b) {
+        for (s, (_, v, parts)) in chosen.iter().zip(&b) {
             println!(
-                "{set}{} {} {:?} {:.1} kg: {} edges beyond ({:.3} %), worst {:.1} deg, {}",
+                "{set}{} {} {:?} {:.1} kg: {} edges beyond ({:.3} %), worst {:.1} deg, {} | {parts:?}",
                 if leave_out.is_empty() { "" } else { "-reduced" },
                 s.id,
                 s.sex,
@@ -272,67 +293,78 @@ fn figure(a: &Args) -> Result<()> {
                 if v.pass { "pass" } else { "FAIL" }
             );
         }
+        let b: Vec<_> = b.into_iter().map(|(v, verdict, _)| (v, verdict)).collect();
         bodies.push((set, entered.len(), b));
     }
     let all_vertices: Vec<&[[f64; 3]]> = bodies
         .iter()
         .flat_map(|(_, _, b)| b.iter().map(|(v, _)| v.as_slice()))
         .collect();
+    // One frame for every panel of every figure: true relative sizes.
     let region = expand(common_region(&all_vertices), 0.02);
     let topo = est.topology().clone();
-    let h = 300;
-    for (set, n, b) in &bodies {
-        for view in [View::Front, View::Right] {
-            let panels = b
-                .iter()
-                .map(|(v, _)| body_views(v, &topo, &Paint::Shaded, &[view], region, 200, h))
-                .collect::<Result<Vec<_>, _>>()?;
-            let w = panels.iter().map(|p| p.width()).max().unwrap_or(100);
-            let mut panels: Vec<_> = panels;
-            // Verdict under each panel.
-            let panels = panels
-                .drain(..)
-                .zip(b)
-                .map(|(p, (_, v))| {
-                    let t = format!(
-                        "{} {:.2}%",
-                        if v.pass { "pass" } else { "FAIL" },
-                        100.0 * v.excess.share()
-                    );
-                    tapeshape_body::render::vstack(&[p, label(&t, w, 14, 1)])
-                })
-                .collect();
-            let name = format!(
-                "{set} ({n}) {}",
-                if matches!(view, View::Front) {
-                    "front"
-                } else {
-                    "side"
-                }
-            );
-            rows.push((name, panels));
-        }
-    }
-    let columns: Vec<String> = chosen
-        .iter()
-        .map(|s| {
-            format!(
-                "{} {} {:.0}kg",
-                if s.sex == Sex::Male { "M" } else { "F" },
-                s.id,
-                s.mass_kg
-            )
-        })
-        .collect();
-    let img = grid(&columns, rows);
     let out = a.out.clone().context("--out")?;
-    save(&img, &out)?;
-    eprintln!(
-        "wrote {} ({} x {})",
-        out.display(),
-        img.width(),
-        img.height()
-    );
+    for (k, (set, n, b)) in bodies.iter().enumerate() {
+        // One figure per input set: a row of men, a row of women, each cell
+        // the body from the front and from its right side, its verdict under it.
+        let cells = b
+            .iter()
+            .map(|(v, verdict)| -> Result<_> {
+                let p = body_views(
+                    v,
+                    &topo,
+                    &Paint::Shaded,
+                    &[View::Front, View::Right],
+                    region,
+                    400,
+                    420,
+                )?;
+                let t = format!(
+                    "{} {:.2} % of edges",
+                    if verdict.pass { "pass" } else { "FAIL" },
+                    100.0 * verdict.excess.share()
+                );
+                let w = p.width();
+                Ok(vstack(&[p, label(&t, w, 16, 1)]))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mut cells = cells.into_iter();
+        let mut rows = Vec::new();
+        for sex in ["men", "women"] {
+            rows.push((sex.to_string(), cells.by_ref().take(6).collect::<Vec<_>>()));
+        }
+        let columns: Vec<String> = (0..6)
+            .map(|i| {
+                let m = chosen[i];
+                let f = chosen[6 + i];
+                format!("{} {:.0}kg / {} {:.0}kg", m.id, m.mass_kg, f.id, f.mass_kg)
+            })
+            .collect();
+        let title = format!(
+            "{set} set, {n} readings and sex entered{}; rule: at most {:.2} % of edges fold > {:.0} deg beyond the training envelope",
+            if *n == 44 || set == &"quick" { "" } else { " (without what a standing mesh cannot follow)" },
+            100.0 * check.rule.max_share,
+            check.rule.delta / DEG
+        );
+        let g = grid(&columns, rows);
+        let img = vstack(&[label(&title, g.width(), 24, 1), g]);
+        let path = if k == 0 {
+            out.clone()
+        } else {
+            let stem = out
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("surface");
+            out.with_file_name(format!("{stem}-{set}{n}.png"))
+        };
+        save(&img, &path)?;
+        eprintln!(
+            "wrote {} ({} x {})",
+            path.display(),
+            img.width(),
+            img.height()
+        );
+    }
     Ok(())
 }
 
