@@ -272,10 +272,18 @@ fn figure(a: &Args) -> Result<()> {
                 let body = est.predict(&inputs_of(s, &entered, true), &opts.options)?;
                 let verdict = check.judge(&body.mesh.vertices)?;
                 let folds = check.envelope.edges().folds(&body.mesh.vertices)?;
-                let parts = check.envelope.beyond_by_part(
-                    &folds,
-                    check.rule.delta,
-                    &tapeshape_body::anatomy::anatomy(),
+                let anatomy = tapeshape_body::anatomy::anatomy();
+                let mut parts = check
+                    .envelope
+                    .beyond_by_part(&folds, check.rule.delta, &anatomy);
+                // The part of the worst edge, last.
+                let worst = verdict.excess.worst;
+                parts.extend(
+                    check
+                        .envelope
+                        .beyond_by_part(&folds, worst - 1e-9 * worst.abs(), &anatomy)
+                        .into_iter()
+                        .map(|(k, n)| (format!("worst: {k}"), n)),
                 );
                 Ok((body.mesh.vertices, verdict, parts))
             })

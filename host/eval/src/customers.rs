@@ -678,6 +678,47 @@ mod tests {
     }
 
     #[test]
+    fn surface_summary_counts_passes_and_orders_the_worst() {
+        use crate::surface::Excess;
+        let person = |id: u32, count: usize, pass: bool| PersonResult {
+            id,
+            sex: Sex::Female,
+            refused: None,
+            body: Vec::new(),
+            entered: Vec::new(),
+            flipped: 0,
+            warnings: Vec::new(),
+            soft_sd_mm: Vec::new(),
+            surface: Some(SurfaceVerdict {
+                excess: Excess {
+                    count,
+                    edges: 1000,
+                    delta: 0.1,
+                    worst: count as f64 / 100.0,
+                    worst_edge: 0,
+                },
+                pass,
+            }),
+        };
+        let mut run = run_of(Vec::new());
+        assert_eq!(run.surface_summary(3), None);
+        run.people = vec![
+            person(4, 1, true),
+            person(8, 30, false),
+            person(12, 2, true),
+        ];
+        let mut unchecked = person(16, 0, true);
+        unchecked.surface = None;
+        run.people.push(unchecked);
+        let s = run.surface_summary(2).unwrap();
+        assert_eq!((s.checked, s.passed), (3, 2));
+        assert_eq!(s.share, [0.002, 0.03, 0.03]);
+        assert_eq!(s.worst, [0.02, 0.3, 0.3]);
+        let ids: Vec<u32> = s.worst_people.iter().map(|p| p.0).collect();
+        assert_eq!(ids, vec![8, 12]);
+    }
+
+    #[test]
     fn a_run_holding_out_only_what_the_mesh_cannot_follow_says_so() {
         let run = run_of(vec![row("chestbreadth", 60.0, 10.0)]);
         assert_eq!(run.overall_followable(), None);
