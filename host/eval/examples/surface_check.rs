@@ -23,7 +23,8 @@
 //! front and side, estimated from their `quick` and from their `ansur`
 //! readings, with each body's verdict under the calibrated rule: `--out
 //! FILE.png` the quick set, `FILE-ansur44.png` the full ansur set, and with
-//! `--leave-out` `FILE-ansurN.png` the reduced one.
+//! `--leave-out` `FILE-ansurN.png` the reduced one. `--ids A,B,...`
+//! draws those test-split people in one row instead.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -48,6 +49,7 @@ struct Args {
     out: Option<PathBuf>,
     synthetic: usize,
     leave_out: Vec<String>,
+    ids: Vec<u32>,
 }
 
 fn parse() -> Result<Args> {
@@ -62,6 +64,7 @@ fn parse() -> Result<Args> {
         out: None,
         synthetic: 0,
         leave_out: Vec::new(),
+        ids: Vec::new(),
     };
     while let Some(f) = it.next() {
         let mut value = || {
@@ -76,6 +79,11 @@ fn parse() -> Result<Args> {
             "--out" => a.out = Some(value()?.into()),
             "--synthetic" => a.synthetic = value()?.parse()?,
             "--leave-out" => a.leave_out.push(value()?),
+            "--ids" => {
+                for id in value()?.split(',') {
+                    a.ids.push(id.trim().parse()?);
+                }
+            }
             other => bail!("unknown argument {other} (see the file's docs)"),
         }
     }
@@ -253,8 +261,21 @@ fn figure(a: &Args) -> Result<()> {
     check.envelope.check_topology(est.topology())?;
     let ansur = Ansur::get()?;
     let all = test_people(ansur, None);
-    let mut chosen = pick(&all, Sex::Male);
-    chosen.extend(pick(&all, Sex::Female));
+    let chosen: Vec<&Subject> = if a.ids.is_empty() {
+        let mut c = pick(&all, Sex::Male);
+        c.extend(pick(&all, Sex::Female));
+        c
+    } else {
+        a.ids
+            .iter()
+            .map(|id| {
+                all.iter()
+                    .copied()
+                    .find(|s| s.id == *id)
+                    .with_context(|| format!("{id} is not a test-split person"))
+            })
+            .collect::<Result<_>>()?
+    };
     // Per input set: (name, readings entered, per person (body, verdict)).
     let mut bodies = Vec::new();
     for (set, leave_out) in variants(&a.leave_out) {
@@ -338,16 +359,24 @@ fn figure(a: &Args) -> Result<()> {
             .collect::<Result<Vec<_>>>()?;
         let mut cells = cells.into_iter();
         let mut rows = Vec::new();
-        for sex in ["men", "women"] {
-            rows.push((sex.to_string(), cells.by_ref().take(6).collect::<Vec<_>>()));
-        }
-        let columns: Vec<String> = (0..6)
-            .map(|i| {
-                let m = chosen[i];
-                let f = chosen[6 + i];
-                format!("{} {:.0}kg / {} {:.0}kg", m.id, m.mass_kg, f.id, f.mass_kg)
-            })
-            .collect();
+        let columns: Vec<String> = if a.ids.is_empty() {
+            for sex in ["men", "women"] {
+                rows.push((sex.to_string(), cells.by_ref().take(6).collect::<Vec<_>>()));
+            }
+            (0..6)
+                .map(|i| {
+                    let m = chosen[i];
+                    let f = chosen[6 + i];
+                    format!("{} {:.0}kg / {} {:.0}kg", m.id, m.mass_kg, f.id, f.mass_kg)
+                })
+                .collect()
+        } else {
+            rows.push((String::new(), cells.collect::<Vec<_>>()));
+            chosen
+                .iter()
+                .map(|s| format!("{} {:?} {:.0}kg", s.id, s.sex, s.mass_kg))
+                .collect()
+        };
         let title = format!(
             "{set} set, {n} readings and sex entered{}; rule: at most {:.2} % of edges fold > {:.0} deg beyond the training envelope",
             if *n == 44 || set == &"quick" { "" } else { " (without what a standing mesh cannot follow)" },
@@ -355,7 +384,8 @@ fn figure(a: &Args) -> Result<()> {
             check.rule.delta / DEG
         );
         let g = grid(&columns, rows);
-        let img = vstack(&[label(&title, g.width(), 24, 1), g]);
+        let tw = g.width().max(8 * title.len() as u32 + 8);
+        let img = vstack(&[label(&title, tw, 24, 1), g]);
         let path = if k == 0 {
             out.clone()
         } else {
