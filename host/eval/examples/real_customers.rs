@@ -11,11 +11,17 @@
 //! `--leave-out COLUMN` (repeatable: an ANSUR column not entered),
 //! `--model FILE` (a model file instead of the embedded default: measure a
 //! candidate before `scripts/rebuild-default-model.sh` embeds it),
-//! `--out FILE` (the Markdown page; default: print it).
+//! `--out FILE` (the Markdown page; default: print it),
+//! `--surface-train FILE.tsd` (check every body's surface against the
+//! envelope of that dataset's bodies with the calibrated rule,
+//! `tapeshape_eval::surface`; the model's training population),
+//! `--surface-held FILE.tsd` (calibrate the rule on those generated
+//! held-out bodies instead of using the embedded model's).
 
 use std::process::ExitCode;
 
-use tapeshape_eval::customers::{markdown, run, CustomersOptions};
+use tapeshape_eval::customers::{markdown, run_with_surface, surface_markdown, CustomersOptions};
+use tapeshape_eval::surface::SurfaceCheck;
 
 fn main() -> ExitCode {
     let mut opts = CustomersOptions {
@@ -27,6 +33,8 @@ fn main() -> ExitCode {
     };
     let mut out = None;
     let mut model: Option<String> = None;
+    let mut surface_train: Option<String> = None;
+    let mut surface_held: Option<String> = None;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -53,6 +61,8 @@ fn main() -> ExitCode {
             "--leave-out" => value("an ANSUR column").map(|v| opts.leave_out.push(v)),
             "--out" => value("a file").map(|v| out = Some(v)),
             "--model" => value("a model file").map(|v| model = Some(v)),
+            "--surface-train" => value("a dataset file").map(|v| surface_train = Some(v)),
+            "--surface-held" => value("a dataset file").map(|v| surface_held = Some(v)),
             other => Err(format!("unknown argument {other} (see the file's docs)")),
         };
         if let Err(e) = r {
@@ -78,7 +88,27 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let result = match run(estimator, &opts) {
+    let check = match &surface_train {
+        None => None,
+        Some(path) => {
+            let read = |p: &str| {
+                tapeshape_population::Dataset::read(std::path::Path::new(p))
+                    .map_err(|e| format!("{p}: {e}"))
+            };
+            let check = read(path).and_then(|train| {
+                let held = surface_held.as_deref().map(read).transpose()?;
+                SurfaceCheck::from_datasets(&train, held.as_ref()).map_err(|e| e.to_string())
+            });
+            match check {
+                Ok(c) => Some(c),
+                Err(e) => {
+                    eprintln!("error: the surface check: {e}");
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
+    };
+    let result = match run_with_surface(estimator, &opts, check.as_ref()) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
@@ -89,7 +119,32 @@ fn main() -> ExitCode {
         "cargo run --release -p tapeshape-eval --example real_customers -- {}",
         args.join(" ")
     );
-    let page = markdown(&result, &opts, &command);
+    let mut page = markdown(&result, &opts, &command);
+    if let (Some(check), Some(path)) = (&check, &surface_train) {
+        let training = match &surface_held {
+            None => format!("`{path}` (rule: the embedded model's)"),
+            Some(h) => {
+                format!("`{path}` (rule calibrated on the generated held-out bodies of `{h}`)")
+            }
+        };
+        page.push_str(&surface_markdown(&result, check, &training));
+        if let Some(sum) = result.surface_summary(5) {
+            let deg = 180.0 / std::f64::consts::PI;
+            eprintln!(
+                "surface (margin {:.1} deg, share <= {:.3} %): {} of {} pass | share % median {:.3} p99 {:.3} max {:.3} | worst deg median {:.1} max {:.1} | worst ids {:?}",
+                check.rule.delta * deg,
+                100.0 * check.rule.max_share,
+                sum.passed,
+                sum.checked,
+                100.0 * sum.share[0],
+                100.0 * sum.share[1],
+                100.0 * sum.share[2],
+                sum.worst[0] * deg,
+                sum.worst[2] * deg,
+                sum.worst_people.iter().map(|p| p.0).collect::<Vec<_>>()
+            );
+        }
+    }
     let (iso, _) = result.iso_pass();
     let held = if result.dims.is_empty() {
         "no dimension held out".to_string()

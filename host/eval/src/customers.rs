@@ -28,6 +28,7 @@ use tapeshape_measure::{CompiledSet, MeasurementSet};
 use tapeshape_population::ansur::{Ansur, Sex, Split, Subject};
 
 use crate::experiments::EvalError;
+use crate::surface::{SurfaceCheck, SurfaceVerdict};
 
 /// What to run.
 #[derive(Debug, Clone)]
@@ -65,6 +66,9 @@ pub struct PersonResult {
     /// The soft targets' conditional SDs (name, mm): the body's spread where
     /// nothing was measured.
     pub soft_sd_mm: Vec<(String, f64)>,
+    /// The surface check's verdict on the body ([`run_with_surface`];
+    /// `None` when not asked for or refused).
+    pub surface: Option<SurfaceVerdict>,
 }
 
 /// One held-out dimension's errors, mm.
@@ -161,6 +165,40 @@ impl CustomersRun {
         })
     }
 
+    /// The surface check over the people estimated with a verdict, with
+    /// the `n_worst` largest shares; `None` when nobody was checked.
+    pub fn surface_summary(&self, n_worst: usize) -> Option<SurfaceSummary> {
+        let mut judged: Vec<(u32, Sex, SurfaceVerdict)> = self
+            .people
+            .iter()
+            .filter_map(|p| Some((p.id, p.sex, p.surface?)))
+            .collect();
+        if judged.is_empty() {
+            return None;
+        }
+        let shares: Vec<f64> = judged.iter().map(|(_, _, v)| v.excess.share()).collect();
+        let worst: Vec<f64> = judged.iter().map(|(_, _, v)| v.excess.worst).collect();
+        let q = |v: &[f64]| [0.5, 0.99, 1.0].map(|q| crate::surface::quantile(v, q));
+        let summary = SurfaceSummary {
+            checked: judged.len(),
+            passed: judged.iter().filter(|(_, _, v)| v.pass).count(),
+            share: q(&shares),
+            worst: q(&worst),
+            worst_people: Vec::new(),
+        };
+        judged.sort_by(|a, b| {
+            b.2.excess
+                .share()
+                .total_cmp(&a.2.excess.share())
+                .then(a.0.cmp(&b.0))
+        });
+        judged.truncate(n_worst);
+        Some(SurfaceSummary {
+            worst_people: judged,
+            ..summary
+        })
+    }
+
     /// People refused.
     pub fn refused(&self) -> usize {
         self.people.iter().filter(|p| p.refused.is_some()).count()
@@ -190,6 +228,23 @@ impl CustomersRun {
                 .collect(),
         )
     }
+}
+
+/// The surface check over a run ([`CustomersRun::surface_summary`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurfaceSummary {
+    /// Bodies checked (people estimated, with a verdict).
+    pub checked: usize,
+    /// Bodies that pass.
+    pub passed: usize,
+    /// Share of edges beyond envelope + margin: median, 99th percentile,
+    /// largest over the bodies (0..=1).
+    pub share: [f64; 3],
+    /// Worst excess angle (fold - envelope): median, 99th percentile,
+    /// largest over the bodies, radians.
+    pub worst: [f64; 3],
+    /// The bodies with the largest share, largest first: (id, sex, verdict).
+    pub worst_people: Vec<(u32, Sex, SurfaceVerdict)>,
 }
 
 /// Ordinary least squares with an intercept: `x` is n x k (one row per
@@ -233,22 +288,64 @@ pub fn test_people(ansur: &Ansur, per_sex: Option<usize>) -> Vec<&Subject> {
     v
 }
 
-/// Runs every test-split person through `estimator` (see the module docs).
-pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRun, EvalError> {
-    let data = |e: &dyn std::fmt::Display| EvalError::Data(e.to_string());
-    let text = tapeshape_estimator::union_set_text(&["ansur", "quick"]).map_err(|e| data(&e))?;
-    let union = MeasurementSet::from_toml_str(&text, "ansur+quick")?;
-    let compiled: CompiledSet =
-        union.compile(estimator.topology(), &tapeshape_body::anatomy::anatomy())?;
+/// The readings `opts` enters: (measurement name, ANSUR II column) of the
+/// input set's measurements that have an ANSUR column, are known to
+/// `estimator` and are not left out.
+pub fn entered_readings(
+    estimator: &Estimator,
+    opts: &CustomersOptions,
+) -> Result<Vec<(String, String)>, EvalError> {
     let input = MeasurementSet::load(&opts.input_set)?;
-    // The entered measurements: the input set's, with an ANSUR column, known
-    // to the estimator.
-    let entered: Vec<(String, String)> = input
+    Ok(input
         .definitions
         .iter()
         .filter_map(|d| d.ansur.clone().map(|c| (d.name.clone(), c)))
         .filter(|(n, c)| estimator.set().index_of(n).is_some() && !opts.leave_out.contains(c))
-        .collect();
+        .collect())
+}
+
+/// The estimator inputs of subject `s`: its real values (metres) of the
+/// `entered` readings ([`entered_readings`]) it has, and its sex when
+/// `with_sex`.
+pub fn inputs_of(s: &Subject, entered: &[(String, String)], with_sex: bool) -> Inputs {
+    let mut inputs = Inputs::new();
+    for (name, col) in entered {
+        if let Some(v) = s.dim(col) {
+            // Names are unique in the set: insert cannot fail.
+            let _ = inputs.insert_metres(name, v);
+        }
+    }
+    if with_sex {
+        inputs.sex = Some(s.sex);
+    }
+    inputs
+}
+
+/// Runs every test-split person through `estimator` (see the module docs).
+pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRun, EvalError> {
+    run_with_surface(estimator, opts, None)
+}
+
+/// [`run`], and when `surface` is given, the surface check of every body
+/// (done as each body is estimated, so meshes are not kept). Errors when
+/// the check's envelope is of another template than the estimator's.
+pub fn run_with_surface(
+    estimator: &Estimator,
+    opts: &CustomersOptions,
+    surface: Option<&SurfaceCheck>,
+) -> Result<CustomersRun, EvalError> {
+    let data = |e: &dyn std::fmt::Display| EvalError::Data(e.to_string());
+    if let Some(check) = surface {
+        check
+            .envelope
+            .check_topology(estimator.topology())
+            .map_err(|e| data(&e))?;
+    }
+    let text = tapeshape_estimator::union_set_text(&["ansur", "quick"]).map_err(|e| data(&e))?;
+    let union = MeasurementSet::from_toml_str(&text, "ansur+quick")?;
+    let compiled: CompiledSet =
+        union.compile(estimator.topology(), &tapeshape_body::anatomy::anatomy())?;
+    let entered = entered_readings(estimator, opts)?;
     let in_cols: Vec<String> = entered.iter().map(|(_, c)| c.clone()).collect();
     let ansur_set = MeasurementSet::load("ansur")?;
     let held: Vec<(usize, String)> = ansur_set
@@ -266,18 +363,13 @@ pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRu
     let results: Vec<PersonResult> = people
         .par_iter()
         .map(|s| {
-            let mut inputs = Inputs::new();
-            let mut idx = Vec::new();
-            for (name, col) in &entered {
-                if let Some(v) = s.dim(col) {
-                    // Names are unique in the set: insert cannot fail.
-                    let _ = inputs.insert_metres(name, v);
-                    idx.push((union.index_of(name).unwrap_or(usize::MAX), v));
-                }
-            }
-            if opts.with_sex {
-                inputs.sex = Some(s.sex);
-            }
+            let inputs = inputs_of(s, &entered, opts.with_sex);
+            let idx: Vec<(usize, f64)> = entered
+                .iter()
+                .filter_map(|(name, col)| {
+                    Some((union.index_of(name).unwrap_or(usize::MAX), s.dim(col)?))
+                })
+                .collect();
             let mut r = PersonResult {
                 id: s.id,
                 sex: s.sex,
@@ -287,6 +379,7 @@ pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRu
                 flipped: 0,
                 warnings: Vec::new(),
                 soft_sd_mm: Vec::new(),
+                surface: None,
             };
             match estimator.predict(&inputs, &options) {
                 Err(e) => r.refused = Some(e.to_string()),
@@ -303,6 +396,8 @@ pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRu
                             })
                             .collect();
                         r.flipped = est.report.prediction.plausibility.flipped_triangles;
+                        // The topology was checked above: judging cannot fail.
+                        r.surface = surface.and_then(|c| c.judge(&est.mesh.vertices).ok());
                         r.soft_sd_mm = est
                             .report
                             .soft_targets
@@ -482,6 +577,62 @@ ratio **{:.3}**; the worst of them {} at {:.2} x.\n",
     s
 }
 
+/// A Markdown section on the surface check of `run` (nothing when nobody
+/// was checked): `check` is what it was run with, `training` names its
+/// training bodies.
+pub fn surface_markdown(run: &CustomersRun, check: &SurfaceCheck, training: &str) -> String {
+    use std::fmt::Write as _;
+    let Some(sum) = run.surface_summary(10) else {
+        return String::new();
+    };
+    let deg = 180.0 / std::f64::consts::PI;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\n## Surface check\n\nEnvelope: per interior edge ({} edges), the largest fold over the {} \
+bodies of {training}. Rule: at most {:.3} % of edges fold more than {:.1} degrees beyond it \
+(`host/eval/src/surface.rs`).\n",
+        check.envelope.edges().len(),
+        check.envelope.bodies(),
+        100.0 * check.rule.max_share,
+        check.rule.delta * deg
+    );
+    let _ = writeln!(
+        s,
+        "**{} of {} bodies pass.**\n\n| | median | 99th percentile | largest |\n|---|---|---|---|",
+        sum.passed, sum.checked
+    );
+    let _ = writeln!(
+        s,
+        "| share of edges beyond envelope + margin, % | {:.3} | {:.3} | {:.3} |",
+        100.0 * sum.share[0],
+        100.0 * sum.share[1],
+        100.0 * sum.share[2]
+    );
+    let _ = writeln!(
+        s,
+        "| worst excess angle, degrees | {:.1} | {:.1} | {:.1} |\n",
+        sum.worst[0] * deg,
+        sum.worst[1] * deg,
+        sum.worst[2] * deg
+    );
+    let _ = writeln!(
+        s,
+        "| worst people: id | sex | edges beyond | share % | worst excess deg | verdict |\n|---|---|---|---|---|---|"
+    );
+    for (id, sex, v) in &sum.worst_people {
+        let _ = writeln!(
+            s,
+            "| {id} | {sex:?} | {} | {:.3} | {:.1} | {} |",
+            v.excess.count,
+            100.0 * v.excess.share(),
+            v.excess.worst * deg,
+            if v.pass { "pass" } else { "fail" }
+        );
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -524,6 +675,47 @@ mod tests {
         assert!((f.worst_ratio - 5.0).abs() < 1e-12);
         // The full mean still counts every dimension.
         assert!((run.overall().0 - 35.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn surface_summary_counts_passes_and_orders_the_worst() {
+        use crate::surface::Excess;
+        let person = |id: u32, count: usize, pass: bool| PersonResult {
+            id,
+            sex: Sex::Female,
+            refused: None,
+            body: Vec::new(),
+            entered: Vec::new(),
+            flipped: 0,
+            warnings: Vec::new(),
+            soft_sd_mm: Vec::new(),
+            surface: Some(SurfaceVerdict {
+                excess: Excess {
+                    count,
+                    edges: 1000,
+                    delta: 0.1,
+                    worst: count as f64 / 100.0,
+                    worst_edge: 0,
+                },
+                pass,
+            }),
+        };
+        let mut run = run_of(Vec::new());
+        assert_eq!(run.surface_summary(3), None);
+        run.people = vec![
+            person(4, 1, true),
+            person(8, 30, false),
+            person(12, 2, true),
+        ];
+        let mut unchecked = person(16, 0, true);
+        unchecked.surface = None;
+        run.people.push(unchecked);
+        let s = run.surface_summary(2).unwrap();
+        assert_eq!((s.checked, s.passed), (3, 2));
+        assert_eq!(s.share, [0.002, 0.03, 0.03]);
+        assert_eq!(s.worst, [0.02, 0.3, 0.3]);
+        let ids: Vec<u32> = s.worst_people.iter().map(|p| p.0).collect();
+        assert_eq!(ids, vec![8, 12]);
     }
 
     #[test]

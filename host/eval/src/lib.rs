@@ -11,5 +11,6 @@ pub mod method;
 pub mod methods;
 pub mod report;
 pub mod sexcheck;
+pub mod surface;
 
 pub use method::{Method, MethodError, MethodOutput, TrainingData};
