@@ -71,6 +71,24 @@ pub struct PersonResult {
     pub surface: Option<SurfaceVerdict>,
 }
 
+impl PersonResult {
+    /// A person with nothing estimated yet: not refused, no body, no
+    /// readings, no warnings, no surface verdict.
+    pub fn new(id: u32, sex: Sex) -> Self {
+        Self {
+            id,
+            sex,
+            refused: None,
+            body: Vec::new(),
+            entered: Vec::new(),
+            flipped: 0,
+            warnings: Vec::new(),
+            soft_sd_mm: Vec::new(),
+            surface: None,
+        }
+    }
+}
+
 /// One held-out dimension's errors, mm.
 #[derive(Debug, Clone)]
 pub struct DimRow {
@@ -370,17 +388,7 @@ pub fn run_with_surface(
                     Some((union.index_of(name).unwrap_or(usize::MAX), s.dim(col)?))
                 })
                 .collect();
-            let mut r = PersonResult {
-                id: s.id,
-                sex: s.sex,
-                refused: None,
-                body: Vec::new(),
-                entered: Vec::new(),
-                flipped: 0,
-                warnings: Vec::new(),
-                soft_sd_mm: Vec::new(),
-                surface: None,
-            };
+            let mut r = PersonResult::new(s.id, s.sex);
             match estimator.predict(&inputs, &options) {
                 Err(e) => r.refused = Some(e.to_string()),
                 Ok(est) => match compiled.measure(&est.mesh.vertices) {
@@ -681,14 +689,6 @@ mod tests {
     fn surface_summary_counts_passes_and_orders_the_worst() {
         use crate::surface::Excess;
         let person = |id: u32, count: usize, pass: bool| PersonResult {
-            id,
-            sex: Sex::Female,
-            refused: None,
-            body: Vec::new(),
-            entered: Vec::new(),
-            flipped: 0,
-            warnings: Vec::new(),
-            soft_sd_mm: Vec::new(),
             surface: Some(SurfaceVerdict {
                 excess: Excess {
                     count,
@@ -699,6 +699,7 @@ mod tests {
                 },
                 pass,
             }),
+            ..PersonResult::new(id, Sex::Female)
         };
         let mut run = run_of(Vec::new());
         assert_eq!(run.surface_summary(3), None);
