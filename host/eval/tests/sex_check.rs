@@ -14,6 +14,7 @@
 //!   whole-body axis.
 
 use tapeshape_estimator::{Estimator, Inputs, PredictOptions};
+use tapeshape_eval::poptable::PopulationTable;
 use tapeshape_eval::sexcheck::{own_side, SexAxis};
 use tapeshape_measure::MeasurementSet;
 use tapeshape_population::ansur::{Ansur, Sex, Split, Subject};
@@ -22,6 +23,42 @@ fn other(sex: Sex) -> Sex {
     match sex {
         Sex::Male => Sex::Female,
         Sex::Female => Sex::Male,
+    }
+}
+
+/// The population table of the embedded default model's training
+/// population (`scripts/rebuild-default-model.sh` writes it with the model).
+const DEFAULT_POPULATION: &str = include_str!("../data/default-population.csv");
+
+#[test]
+fn the_committed_population_table_is_the_embedded_models_and_its_axes_separate_it() {
+    let table = PopulationTable::from_csv(DEFAULT_POPULATION).unwrap();
+    // A table left behind by a model rebuild would judge estimates against
+    // another population.
+    assert_eq!(
+        table.model_sha256.as_deref(),
+        Some(tapeshape_estimator::cache::DEFAULT_MODEL_SHA256),
+        "host/eval/data/default-population.csv is not the embedded model's population: \
+         run scripts/rebuild-default-model.sh"
+    );
+    let estimator = Estimator::default_model().expect("embedded model");
+    assert_eq!(table.rows.len(), estimator.file().model.n_training);
+    assert!(table.rows.iter().any(|r| r.sex == Sex::Male));
+    assert!(table.rows.iter().any(|r| r.sex == Sex::Female));
+    // Fisher's axis on its own fit bodies puts nearly all on their side
+    // (measured: whole body 100 %, torso shape 93 % / 87 %).
+    for (axis, floor) in [
+        (SexAxis::whole_body_population(&table).unwrap(), 0.99),
+        (SexAxis::torso_population(&table).unwrap(), 0.8),
+    ] {
+        for sex in [Sex::Male, Sex::Female] {
+            assert!(
+                axis.train_accuracy(sex) >= floor,
+                "{}: {sex:?} {}",
+                axis.name,
+                axis.train_accuracy(sex)
+            );
+        }
     }
 }
 
