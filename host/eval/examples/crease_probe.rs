@@ -1,0 +1,177 @@
+//! Where do the creases of bodies estimated from many readings come from?
+//! For the first N ANSUR II test-split people of each sex (their real
+//! values of an input set, with their sex), the estimate's step-1 shape
+//! (inside the PCA space) and final shape are mixed, and each mix is judged
+//! by the surface check (`tapeshape_eval::surface`, the envelope of the
+//! model's training population, the rule calibrated on held-out generated
+//! bodies) and by the ISO 20685-1 pass share of the entered readings
+//! re-measured on it.
+//!
+//! ```text
+//! cargo run --release -p tapeshape-eval --example crease_probe -- \
+//!     --train POP.tsd --held HELD.tsd --set ansur --per-sex 8 \
+//!     [--variant blend|shrink|trunc] [--l L] [--lambda X] [--leave-out COL,COL]
+//! ```
+//!
+//! Variants, for a mixing factor `a` from 1 to 0: `blend` (default) the
+//! vertices `x1 + a (x2 - x1)` between step 1's shape `x1` and the result
+//! `x2`; `shrink` the PCA shape of `a` times step 1's weights; `trunc` the
+//! PCA shape of step 1's first `100 a` weights. `--l` and `--lambda` set
+//! the step-1 clamp and step 2's smoothness weight; `--leave-out` drops
+//! ANSUR II columns from the input. Also printed: how many of step 1's
+//! weights sit at the clamp (|w| > 0.999 l). The embedded default model.
+
+use std::path::Path;
+use std::process::ExitCode;
+
+use rayon::prelude::*;
+use tapeshape_eval::customers::{entered_readings, inputs_of, test_people, CustomersOptions};
+use tapeshape_eval::surface::SurfaceCheck;
+use tapeshape_measure::MeasurementSet;
+use tapeshape_population::ansur::Ansur;
+use tapeshape_population::Dataset;
+
+fn main() -> ExitCode {
+    match real_main() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Per mixing factor: (passes the surface check, share of edges beyond,
+/// readings within ISO, readings).
+type Row = Vec<(bool, f64, usize, usize)>;
+
+fn real_main() -> Result<(), String> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let get = |name: &str| {
+        args.iter()
+            .position(|a| a == name)
+            .and_then(|i| args.get(i + 1).cloned())
+    };
+    let train = get("--train").ok_or("--train POP.tsd is needed (the model's population)")?;
+    let held = get("--held").ok_or("--held HELD.tsd is needed (held-out generated bodies)")?;
+    let set = get("--set").unwrap_or_else(|| "ansur".into());
+    let per_sex: usize = get("--per-sex")
+        .unwrap_or_else(|| "8".into())
+        .parse()
+        .map_err(|e| format!("--per-sex: {e}"))?;
+    let variant = get("--variant").unwrap_or_else(|| "blend".into());
+    if !["blend", "shrink", "trunc"].contains(&variant.as_str()) {
+        return Err(format!("--variant {variant}: blend, shrink or trunc"));
+    }
+    let est = tapeshape_estimator::Estimator::default_model().map_err(|e| e.to_string())?;
+    // The station's pipeline (with its real-people soft targets), with the
+    // clamp and smoothness given.
+    let options = tapeshape_estimator::PredictOptions {
+        l: get("--l")
+            .map(|v| v.parse().map_err(|e| format!("--l: {e}")))
+            .transpose()?,
+        lambda: get("--lambda")
+            .map(|v| v.parse().map_err(|e| format!("--lambda: {e}")))
+            .transpose()?,
+        ..Default::default()
+    };
+    let l = options.settings().l;
+    let opts = CustomersOptions {
+        input_set: set.clone(),
+        with_sex: true,
+        per_sex: Some(per_sex),
+        leave_out: get("--leave-out")
+            .map(|v| v.split(',').map(String::from).collect())
+            .unwrap_or_default(),
+        options,
+    };
+    let read = |f: &str| Dataset::read(Path::new(f)).map_err(|e| format!("{f}: {e}"));
+    let check = SurfaceCheck::from_datasets(&read(&train)?, Some(&read(&held)?))
+        .map_err(|e| e.to_string())?;
+    let entered = entered_readings(est, &opts).map_err(|e| e.to_string())?;
+    let text =
+        tapeshape_estimator::union_set_text(&["ansur", "quick"]).map_err(|e| e.to_string())?;
+    let union = MeasurementSet::from_toml_str(&text, "ansur+quick").map_err(|e| e.to_string())?;
+    let compiled = union
+        .compile(est.topology(), &tapeshape_body::anatomy::anatomy())
+        .map_err(|e| e.to_string())?;
+    let ansur = Ansur::get().map_err(|e| e.to_string())?;
+    let people = test_people(ansur, Some(per_sex));
+    let factors = [1.0, 0.75, 0.5, 0.35, 0.25, 0.1, 0.0];
+    let model = &est.file().model;
+    let results: Vec<Result<(Row, usize), String>> = people
+        .par_iter()
+        .map(|s| {
+            let e = est
+                .predict(&inputs_of(s, &entered, true), &opts.options)
+                .map_err(|e| format!("subject {}: {e}", s.id))?;
+            let w1 = &e.report.prediction.weights_step1;
+            let at_clamp = w1.iter().filter(|w| w.abs() > 0.999 * l).count();
+            let x1 = model.shape(w1).map_err(|e| e.to_string())?;
+            let x2 = &e.mesh.vertices;
+            let row = factors
+                .iter()
+                .map(|&a| {
+                    let x = match variant.as_str() {
+                        "shrink" => model.shape(&w1.iter().map(|w| a * w).collect::<Vec<_>>()),
+                        "trunc" => {
+                            let keep = (a * w1.len() as f64).round() as usize;
+                            let w: Vec<f64> = w1
+                                .iter()
+                                .enumerate()
+                                .map(|(i, w)| if i < keep { *w } else { 0.0 })
+                                .collect();
+                            model.shape(&w)
+                        }
+                        _ => Ok(x1
+                            .iter()
+                            .zip(x2)
+                            .map(|(p, q)| std::array::from_fn(|c| p[c] + a * (q[c] - p[c])))
+                            .collect()),
+                    }
+                    .map_err(|e| e.to_string())?;
+                    let v = check.judge(&x).map_err(|e| e.to_string())?;
+                    let m = compiled.measure(&x).map_err(|e| e.to_string())?;
+                    let (mut ok, mut n) = (0, 0);
+                    for (name, col) in &entered {
+                        let (Some(val), Some(j)) = (s.dim(col), union.index_of(name)) else {
+                            continue;
+                        };
+                        let tol = union.definitions[j].tolerance.mm() / 1000.0;
+                        n += 1;
+                        ok += usize::from((m[j].value - val).abs() <= tol);
+                    }
+                    Ok((v.pass, v.excess.share(), ok, n))
+                })
+                .collect::<Result<Row, String>>()?;
+            Ok((row, at_clamp))
+        })
+        .collect();
+    let results: Vec<(Row, usize)> = results.into_iter().collect::<Result<_, _>>()?;
+    let mut clamp: Vec<usize> = results.iter().map(|r| r.1).collect();
+    clamp.sort_unstable();
+    println!(
+        "`{}` input, {} people ({per_sex} per sex), variant {variant}, l {l}, surface rule {:.1} deg / {:.2} %; step-1 weights at the clamp per person: median {}, range {}-{}\n",
+        set,
+        results.len(),
+        check.rule.delta.to_degrees(),
+        100.0 * check.rule.max_share,
+        clamp[clamp.len() / 2],
+        clamp[0],
+        clamp[clamp.len() - 1]
+    );
+    println!("| factor | surface check passes | mean share of edges beyond | entered readings within ISO |\n|---|---|---|---|");
+    for (i, a) in factors.iter().enumerate() {
+        let pass = results.iter().filter(|r| r.0[i].0).count();
+        let share = results.iter().map(|r| r.0[i].1).sum::<f64>() / results.len() as f64;
+        let ok: usize = results.iter().map(|r| r.0[i].2).sum();
+        let n: usize = results.iter().map(|r| r.0[i].3).sum();
+        println!(
+            "| {a:.2} | {pass} of {} | {:.3} % | {:.1} % ({ok} of {n}) |",
+            results.len(),
+            100.0 * share,
+            100.0 * ok as f64 / n.max(1) as f64
+        );
+    }
+    Ok(())
+}
