@@ -109,8 +109,9 @@ fn main() -> ExitCode {
         // wanted; end quietly, as grep and ripgrep do.
         Err(e) if cli::is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            // `{:#}`: the error with its context chain on one line, no backtrace.
-            eprintln!("error: {e:#}");
+            // The error with its context chain on one line, no backtrace,
+            // each cause once.
+            eprintln!("error: {}", cli::error_line(&e));
             ExitCode::FAILURE
         }
     }

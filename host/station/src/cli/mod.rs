@@ -234,6 +234,26 @@ pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
     })
 }
 
+/// `err` and its causes on one line, `outer: cause: ...`, leaving out a
+/// cause whose text the message before it already ends with. Many of the
+/// library errors print their source in their own message ("{path}:
+/// {source}") and also return it as their source, and anyhow's `{:#}`
+/// then printed it twice ("No such file or directory (os error 2): No such
+/// file or directory (os error 2)").
+pub fn error_line(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if line.is_empty() {
+            line = text;
+        } else if !line.ends_with(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    line
+}
+
 /// Monochrome when asked, or when `NO_COLOR` is set to anything non-empty
 /// (<https://no-color.org>).
 pub fn mono_wanted(flag: bool) -> bool {
@@ -248,6 +268,31 @@ pub fn reading_tolerance(mm: Option<f64>) -> anyhow::Result<Option<f64>> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn error_line_prints_each_cause_once() {
+        #[derive(Debug, thiserror::Error)]
+        #[error("{path}: {source}")]
+        struct Shown {
+            path: String,
+            source: std::io::Error,
+        }
+        let io = || std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        // A source the message already shows: once.
+        let e = anyhow::Error::new(Shown {
+            path: "/x.tsd".into(),
+            source: io(),
+        })
+        .context("reading the dataset /x.tsd");
+        assert_eq!(
+            super::error_line(&e),
+            "reading the dataset /x.tsd: /x.tsd: no such file"
+        );
+        // A source the message does not show: appended, as {:#} does.
+        let e = anyhow::Error::new(io()).context("opening the store");
+        assert_eq!(super::error_line(&e), "opening the store: no such file");
+        assert_eq!(super::error_line(&anyhow::anyhow!("plain")), "plain");
+    }
+
     use super::*;
 
     #[test]
