@@ -41,6 +41,12 @@ pub struct PredictOptions {
     /// Rounds of support recomputation per step (paper: 3; 0 = the start
     /// only); `None`: the pipeline's.
     pub s: Option<usize>,
+    /// Weight of step 2's bending term (the displacement's curvature, which
+    /// keeps a body entered with many readings from creasing; see
+    /// [`tapeshape_model::Step2Settings::bending`]); `None`: the pipeline's
+    /// (0, none).
+    #[serde(default)]
+    pub bending: Option<f64>,
     /// How real people guide what was not measured ([`crate::priors`]):
     /// `None`: the pipeline's (the station's: [`RealPeople::default`]; the
     /// paper's and custom pipelines: nothing, the model alone);
@@ -82,6 +88,9 @@ impl PredictOptions {
         if let Some(rounds) = self.s {
             s.s = rounds;
         }
+        if let Some(bending) = self.bending {
+            s.step2.bending = bending;
+        }
         s
     }
 
@@ -117,10 +126,14 @@ mod tests {
             l: Some(10.0),
             lambda: Some(1.0),
             s: Some(0),
+            bending: Some(100.0),
             ..PredictOptions::paper()
         };
         let s = o.settings();
-        assert_eq!((s.l, s.step2.lambda, s.s), (10.0, 1.0, 0));
+        assert_eq!(
+            (s.l, s.step2.lambda, s.s, s.step2.bending),
+            (10.0, 1.0, 0, 100.0)
+        );
         assert_eq!(s.step1, PredictSettings::paper().step1);
         let bad = PredictOptions {
             lambda: Some(2.0),

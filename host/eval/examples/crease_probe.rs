@@ -10,14 +10,15 @@
 //! ```text
 //! cargo run --release -p tapeshape-eval --example crease_probe -- \
 //!     --train POP.tsd --held HELD.tsd --set ansur --per-sex 8 \
-//!     [--variant blend|shrink|trunc] [--l L] [--lambda X] [--leave-out COL,COL]
+//!     [--variant blend|shrink|trunc] [--l L] [--lambda X] [--bending MU] [--leave-out COL,COL]
 //! ```
 //!
 //! Variants, for a mixing factor `a` from 1 to 0: `blend` (default) the
 //! vertices `x1 + a (x2 - x1)` between step 1's shape `x1` and the result
 //! `x2`; `shrink` the PCA shape of `a` times step 1's weights; `trunc` the
-//! PCA shape of step 1's first `100 a` weights. `--l` and `--lambda` set
-//! the step-1 clamp and step 2's smoothness weight; `--leave-out` drops
+//! PCA shape of step 1's first `100 a` weights. `--l`, `--lambda` and
+//! `--bending` set the step-1 clamp, step 2's smoothness weight and its
+//! bending term; `--leave-out` drops
 //! ANSUR II columns from the input. Also printed: how many of step 1's
 //! weights sit at the clamp (|w| > 0.999 l). The embedded default model.
 
@@ -72,6 +73,9 @@ fn real_main() -> Result<(), String> {
             .transpose()?,
         lambda: get("--lambda")
             .map(|v| v.parse().map_err(|e| format!("--lambda: {e}")))
+            .transpose()?,
+        bending: get("--bending")
+            .map(|v| v.parse().map_err(|e| format!("--bending: {e}")))
             .transpose()?,
         ..Default::default()
     };

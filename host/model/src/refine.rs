@@ -3,7 +3,7 @@
 //! * [`WeightObjective`] (step 1): `E_m` over the K normalised PCA weights,
 //!   optionally with the training Gaussian's prior and held components.
 //! * [`VertexObjective`] (step 2): `(1 - lambda) E_m + lambda E_s` over the
-//!   3V vertex coordinates.
+//!   3V vertex coordinates (optionally `E_s + mu E_b`, the bending term).
 //!
 //! Both evaluate the energy and its gradient together and allocate nothing
 //! per evaluation. The solver is [`crate::lbfgs`] (re-exported here, where
@@ -11,7 +11,9 @@
 
 use std::cell::RefCell;
 
-use crate::energy::{measurement_energy, smoothness_of_displacement, SegmentTerm};
+use crate::energy::{
+    bending_of_displacement, measurement_energy, smoothness_of_displacement, SegmentTerm,
+};
 use crate::lbfgs::{axpy, dot};
 pub use crate::lbfgs::{
     minimise, minimise_watched, Control, Lbfgs, LineSearch, MinimiseError, Objective, RunInfo,
@@ -166,7 +168,11 @@ pub struct VertexObjective<'a> {
     edges: &'a [[u32; 2]],
     reference: &'a [f64],
     lambda: f64,
+    /// Weight of the bending term inside the smoothness energy (0: none).
+    bending: f64,
     disp: RefCell<Vec<f64>>,
+    /// The bending term's Laplacian buffer.
+    scratch: RefCell<Vec<f64>>,
 }
 
 impl<'a> VertexObjective<'a> {
@@ -184,8 +190,17 @@ impl<'a> VertexObjective<'a> {
             edges,
             reference,
             lambda,
+            bending: 0.0,
             disp: RefCell::new(vec![0.0; reference.len()]),
+            scratch: RefCell::new(Vec::new()),
         }
+    }
+
+    /// Adds the bending term: the smoothness energy becomes
+    /// `E_s + bending E_b` ([`crate::energy::bending_of_displacement`]).
+    pub fn with_bending(mut self, bending: f64) -> Self {
+        self.bending = bending;
+        self
     }
 
     /// The measurement terms, the mesh edges and `lambda` (what
@@ -204,7 +219,16 @@ impl Objective for VertexObjective<'_> {
         for ((d, xi), ri) in disp.iter_mut().zip(x).zip(self.reference) {
             *d = xi - ri;
         }
-        let es = smoothness_of_displacement(self.edges, &disp, Some((grad, self.lambda)));
+        let mut es = smoothness_of_displacement(self.edges, &disp, Some((&mut *grad, self.lambda)));
+        if self.bending > 0.0 {
+            es += self.bending
+                * bending_of_displacement(
+                    self.edges,
+                    &disp,
+                    &mut self.scratch.borrow_mut(),
+                    Some((grad, self.lambda * self.bending)),
+                );
+        }
         (1.0 - self.lambda) * em + self.lambda * es
     }
 }
@@ -315,32 +339,40 @@ mod tests {
             .map(|v| [v[0] + lcg(&mut s), v[1], v[2] - 2.0])
             .collect();
         let edges = [[0, 1], [1, 2], [2, 3], [3, 4], [0, 4], [1, 3]];
-        let obj = VertexObjective::new(
-            vec![SegmentTerm {
-                p0: SupportPoint { a: 0, b: 1, t: 0.5 },
-                p1: SupportPoint::vertex(3),
-                axis: None,
-                target_sq: 2500.0,
-                weight: 1.0,
-            }],
-            &edges,
-            reference.as_flattened(),
-            0.1,
-        );
-        let x: Vec<f64> = p.as_flattened().to_vec();
-        let mut g = vec![0.0; x.len()];
-        obj.eval(&x, &mut g);
-        let mut scratch = vec![0.0; x.len()];
-        let scale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        for j in 0..x.len() {
-            let h = 1e-5;
-            let mut xp = x.clone();
-            xp[j] += h;
-            let fp = obj.eval(&xp, &mut scratch);
-            xp[j] -= 2.0 * h;
-            let fm = obj.eval(&xp, &mut scratch);
-            let fd = (fp - fm) / (2.0 * h);
-            assert!((fd - g[j]).abs() < 1e-6 * scale, "{j}: {fd} vs {}", g[j]);
+        // Without and with the bending term.
+        for bending in [0.0, 3.0] {
+            let obj = VertexObjective::new(
+                vec![SegmentTerm {
+                    p0: SupportPoint { a: 0, b: 1, t: 0.5 },
+                    p1: SupportPoint::vertex(3),
+                    axis: None,
+                    target_sq: 2500.0,
+                    weight: 1.0,
+                }],
+                &edges,
+                reference.as_flattened(),
+                0.1,
+            )
+            .with_bending(bending);
+            let x: Vec<f64> = p.as_flattened().to_vec();
+            let mut g = vec![0.0; x.len()];
+            obj.eval(&x, &mut g);
+            let mut scratch = vec![0.0; x.len()];
+            let scale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for j in 0..x.len() {
+                let h = 1e-5;
+                let mut xp = x.clone();
+                xp[j] += h;
+                let fp = obj.eval(&xp, &mut scratch);
+                xp[j] -= 2.0 * h;
+                let fm = obj.eval(&xp, &mut scratch);
+                let fd = (fp - fm) / (2.0 * h);
+                assert!(
+                    (fd - g[j]).abs() < 1e-6 * scale,
+                    "bending {bending}, {j}: {fd} vs {}",
+                    g[j]
+                );
+            }
         }
     }
 }

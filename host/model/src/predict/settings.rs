@@ -114,6 +114,15 @@ pub enum Step1Clamp {
 pub struct Step2Settings {
     /// Weight of the smoothness energy, in `[0, 1]` (paper: 0.1).
     pub lambda: f64,
+    /// Weight `mu` of the bending term added to the smoothness energy,
+    /// `E_s + mu E_b` ([`crate::energy::bending_of_displacement`]); 0 (the
+    /// default and the paper): none. Only the L-BFGS solver takes it.
+    /// Why: with many readings that the learned space cannot follow, step
+    /// 2's membrane term lets the displacement bend sharply along the
+    /// readings' paths and the surface creases
+    /// (`docs/results/real-customers/surface-check.md`); the bending term
+    /// penalises the displacement's curvature instead of its slope.
+    pub bending: f64,
     /// How the readings' energies are weighted.
     pub weighting: Step2Weighting,
     /// What minimises each round.
@@ -311,6 +320,7 @@ impl Default for PredictSettings {
             },
             step2: Step2Settings {
                 lambda: 0.1,
+                bending: 0.0,
                 weighting: Step2Weighting::PerMeasurement {
                     reading_weight: 1e4,
                 },
@@ -401,6 +411,9 @@ pub enum SettingsError {
         /// The stopping rule.
         what: &'static str,
     },
+    /// Two settings that do not go together.
+    #[error("{0}")]
+    Unsupported(&'static str),
 }
 
 fn positive(what: &'static str, value: f64) -> Result<f64, SettingsError> {
@@ -531,6 +544,7 @@ impl Step1Prior {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Step2Config {
     pub(crate) lambda: f64,
+    pub(crate) bending: f64,
     /// The weighting and its per-measurement scale (1 with the paper's).
     pub(crate) weighting: (EnergyWeighting, f64),
     pub(crate) solver: Step2Method,
@@ -640,6 +654,18 @@ impl PredictConfig {
                 value: s2.lambda,
             });
         }
+        if !(s2.bending.is_finite() && s2.bending >= 0.0) {
+            return Err(SettingsError::OutOfRange {
+                what: "bending",
+                range: "[0, inf)",
+                value: s2.bending,
+            });
+        }
+        if s2.bending > 0.0 && !matches!(s2.solver, Step2Solver::Lbfgs { .. }) {
+            return Err(SettingsError::Unsupported(
+                "the bending term is only taken by step 2's L-BFGS solver; set bending to 0 or the solver to L-BFGS",
+            ));
+        }
         let weighting2 = match s2.weighting {
             Step2Weighting::Paper => (EnergyWeighting::Paper, 1.0),
             Step2Weighting::PerMeasurement { reading_weight } => (
@@ -672,6 +698,7 @@ impl PredictConfig {
             },
             step2: Step2Config {
                 lambda: s2.lambda,
+                bending: s2.bending,
                 weighting: weighting2,
                 solver: match s2.solver {
                     Step2Solver::Lbfgs { stop } => Step2Method::Lbfgs(Lbfgs {

@@ -132,7 +132,8 @@ impl RoundStep for Step2Rounds<'_> {
         let watch = in_run_every(observer, at, 1);
         let run = match (&self.config.solver, self.smooth.as_mut()) {
             (Step2Method::Lbfgs(solver), _) => minimise_watched(
-                &VertexObjective::new(terms, self.edges, &self.reference_mm, lambda),
+                &VertexObjective::new(terms, self.edges, &self.reference_mm, lambda)
+                    .with_bending(self.config.bending),
                 self.x_mm.clone(),
                 solver,
                 &in_run(observer, at),

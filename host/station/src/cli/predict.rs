@@ -98,6 +98,12 @@ pub struct Args {
     #[arg(long)]
     pub s: Option<usize>,
 
+    /// Weight of step 2's bending term, which keeps a body entered with many
+    /// readings from creasing at the cost of meeting fewer of them (with
+    /// `--l 1`: docs/results/real-customers/surface-check.md) [default: 0, the paper's].
+    #[arg(long, value_name = "MU")]
+    pub bending: Option<f64>,
+
     /// List the model's measurements (name, sets, label) and exit.
     #[arg(long)]
     pub list: bool,
@@ -163,6 +169,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         l: args.l,
         lambda: args.lambda,
         s: args.s,
+        bending: args.bending,
         real_people: args.no_real_people.then_some(None),
         ..PredictOptions::default()
     };

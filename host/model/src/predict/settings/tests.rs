@@ -73,6 +73,7 @@ fn bad_values_are_refused_when_resolved_naming_the_setting() {
         (
             PredictSettings {
                 step2: Step2Settings {
+                    bending: 0.0,
                     lambda: 1.5,
                     ..PredictSettings::default().step2
                 },
@@ -90,6 +91,7 @@ fn bad_values_are_refused_when_resolved_naming_the_setting() {
         (
             PredictSettings {
                 step2: Step2Settings {
+                    bending: 0.0,
                     weighting: Step2Weighting::PerMeasurement {
                         reading_weight: 0.0,
                     },
@@ -133,6 +135,29 @@ fn bad_values_are_refused_when_resolved_naming_the_setting() {
                 ..Default::default()
             },
             "share",
+        ),
+        (
+            PredictSettings {
+                step2: Step2Settings {
+                    bending: -1.0,
+                    ..PredictSettings::default().step2
+                },
+                ..Default::default()
+            },
+            "bending must lie in",
+        ),
+        (
+            PredictSettings {
+                step2: Step2Settings {
+                    bending: 10.0,
+                    solver: Step2Solver::GaussNewton {
+                        stop: Default::default(),
+                    },
+                    ..PredictSettings::default().step2
+                },
+                ..Default::default()
+            },
+            "only taken by step 2's L-BFGS",
         ),
     ];
     for (s, want) in cases {

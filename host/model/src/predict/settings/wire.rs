@@ -15,6 +15,8 @@ use crate::lbfgs::StopRule;
 #[derive(Deserialize)]
 struct Step2Wire {
     lambda: f64,
+    #[serde(default)]
+    bending: f64,
     weighting: Step2Weighting,
     #[serde(default)]
     solver: Option<Step2Solver>,
@@ -32,6 +34,7 @@ impl<'de> Deserialize<'de> for Step2Settings {
         };
         Ok(Self {
             lambda: w.lambda,
+            bending: w.bending,
             weighting: w.weighting,
             solver,
         })
@@ -121,6 +124,7 @@ impl From<FlatWire> for PredictSettings {
             },
             step2: Step2Settings {
                 lambda: f.lambda,
+                bending: 0.0,
                 weighting: match f.step2_weighting {
                     EnergyWeighting::Paper => Step2Weighting::Paper,
                     EnergyWeighting::PerMeasurement => Step2Weighting::PerMeasurement {
