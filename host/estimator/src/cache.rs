@@ -36,7 +36,7 @@ use crate::checks::RealStats;
 const MAGIC: [u8; 8] = *b"TSMCACHE";
 /// Bump when the layout or anything cached (the statistics' definition)
 /// changes: older files are then rebuilt.
-const FORMAT: u32 = 1;
+const FORMAT: u32 = 2;
 const HEADER: usize = 8 + 4 + 32 + 8 + 4;
 
 /// The sha256 (hex) of the embedded default model (`build.rs`).

@@ -212,7 +212,9 @@ impl Estimator {
         options: &PredictOptions,
         observer: &dyn PredictObserver,
     ) -> Result<Estimate, PredictError> {
-        let config = options.resolve()?;
+        // The customer's sex conditions the start and step 1 where the model
+        // has each sex's statistics (tapeshape_model::sexprior).
+        let config = options.resolve()?.with_sex(inputs.sex.map(model_sex));
         if observer.observe(&PredictProgress::at(PredictStage::Check)) == Control::Cancel {
             return Err(PredictError::Cancelled("before the input checks".into()));
         }
@@ -301,5 +303,13 @@ impl Estimator {
                 totals,
             },
         })
+    }
+}
+
+/// The model crate's sex for the survey's.
+pub(crate) fn model_sex(sex: tapeshape_population::ansur::Sex) -> tapeshape_model::Sex {
+    match sex {
+        tapeshape_population::ansur::Sex::Male => tapeshape_model::Sex::Male,
+        tapeshape_population::ansur::Sex::Female => tapeshape_model::Sex::Female,
     }
 }

@@ -157,7 +157,23 @@ pub fn train(
         rows.push(m.iter().map(|x| x.value).collect::<Vec<f64>>());
     }
     let names: Vec<String> = set.definitions.iter().map(|d| d.name.clone()).collect();
-    let mut model = ShapeModel::fit(&bodies, &rows, &names, &settings.fit)?;
+    // Each body's sex, where the population recorded it: the model then
+    // keeps each sex's statistics for predictions given the customer's sex.
+    let sexes: Vec<Option<tapeshape_model::Sex>> = (0..bodies.len())
+        .map(|i| {
+            dataset
+                .header
+                .bodies
+                .get(i)
+                .and_then(|b| b.sex)
+                .map(crate::estimator::model_sex)
+        })
+        .collect();
+    let sexes = sexes
+        .iter()
+        .any(Option::is_some)
+        .then_some(sexes.as_slice());
+    let mut model = ShapeModel::fit_with_sexes(&bodies, &rows, &names, sexes, &settings.fit)?;
     if let Some(share) = settings.variance_kept {
         if !(share > 0.0 && share <= 1.0) {
             return Err(PredictError::Training(format!(
@@ -182,7 +198,7 @@ pub fn train(
                 max_components: Some(keep),
                 ..settings.fit.clone()
             };
-            model = ShapeModel::fit(&bodies, &rows, &names, &fit)?;
+            model = ShapeModel::fit_with_sexes(&bodies, &rows, &names, sexes, &fit)?;
         }
     }
     if settings.round_to_f32 {

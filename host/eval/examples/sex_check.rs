@@ -14,12 +14,18 @@
 //! Options: `--set quick|ansur` (the input; default quick), `--per-sex N`
 //! (the first N of each sex by id; default all), `--out FILE` (the
 //! Markdown page; default: print it), `--png FILE` (score histograms),
-//! `--csv FILE` (every person's scores).
+//! `--csv FILE` (every person's scores), `--model FILE` (a model file
+//! instead of the embedded default), `--population FILE` (the model's
+//! training population as a population table,
+//! `tapeshape_eval::poptable`, made by the `population_table` example:
+//! adds the two axes fitted on it; the embedded default's is
+//! `host/eval/data/default-population.csv`).
 
 use std::path::Path;
 use std::process::ExitCode;
 
 use tapeshape_eval::customers::{run, CustomersOptions};
+use tapeshape_eval::poptable::PopulationTable;
 use tapeshape_eval::sexcheck::{csv, histogram, markdown, score_run, Group, SexAxis};
 use tapeshape_population::ansur::Ansur;
 
@@ -37,6 +43,7 @@ fn real_main() -> Result<(), String> {
     let mut set = "quick".to_string();
     let mut per_sex = None;
     let (mut out, mut png, mut csv_out) = (None, None, None);
+    let (mut model, mut population) = (None, None);
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -54,15 +61,31 @@ fn real_main() -> Result<(), String> {
             "--out" => out = Some(value("a file")?),
             "--png" => png = Some(value("a file")?),
             "--csv" => csv_out = Some(value("a file")?),
+            "--model" => model = Some(value("a model file")?),
+            "--population" => population = Some(value("a population table")?),
             other => return Err(format!("unknown argument {other} (see the file's docs)")),
         }
     }
     let ansur = Ansur::get().map_err(|e| e.to_string())?;
-    let axes = vec![
+    let mut axes = vec![
         SexAxis::whole_body(ansur).map_err(|e| e.to_string())?,
         SexAxis::torso(ansur).map_err(|e| e.to_string())?,
     ];
-    let estimator = tapeshape_estimator::Estimator::default_model().map_err(|e| e.to_string())?;
+    if let Some(f) = &population {
+        let text = std::fs::read_to_string(f).map_err(|e| format!("reading {f}: {e}"))?;
+        let table = PopulationTable::from_csv(&text).map_err(|e| format!("{f}: {e}"))?;
+        axes.push(SexAxis::whole_body_population(&table).map_err(|e| e.to_string())?);
+        axes.push(SexAxis::torso_population(&table).map_err(|e| e.to_string())?);
+    }
+    let owned;
+    let estimator = match &model {
+        None => tapeshape_estimator::Estimator::default_model().map_err(|e| e.to_string())?,
+        Some(f) => {
+            owned = tapeshape_estimator::Estimator::load(Path::new(f))
+                .map_err(|e| format!("{f}: {e}"))?;
+            &owned
+        }
+    };
     let mut groups = Vec::new();
     for (label, with_sex) in [("estimate with sex", true), ("estimate without sex", false)] {
         let opts = CustomersOptions {

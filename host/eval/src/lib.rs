@@ -9,6 +9,7 @@ pub mod experiments;
 pub mod figures;
 pub mod method;
 pub mod methods;
+pub mod poptable;
 pub mod report;
 pub mod sexcheck;
 pub mod surface;

@@ -56,6 +56,7 @@ use tapeshape_measure::MeasurementSet;
 use tapeshape_population::ansur::{Ansur, Sex, Split, Subject};
 
 use crate::customers::CustomersRun;
+use crate::poptable::PopulationTable;
 
 /// What can go wrong fitting or applying an axis.
 #[derive(Debug, thiserror::Error)]
@@ -123,6 +124,9 @@ pub fn whole_body_columns() -> Result<Vec<String>, SexCheckError> {
 pub struct SexAxis {
     /// Short name for tables.
     pub name: String,
+    /// The bodies it was fitted on, for tables ("ANSUR II train split" or a
+    /// training population).
+    pub fitted_on: String,
     /// The ANSUR II columns, in feature order.
     pub columns: Vec<String>,
     /// Each column divided by stature (the torso-shape axis).
@@ -185,6 +189,31 @@ impl SexAxis {
         if let Some(s) = subjects.iter().find(|s| s.split() == Split::Test) {
             return Err(SexCheckError::TestSubject(s.id));
         }
+        SexAxis::fit_on(
+            name,
+            "ANSUR II train split",
+            subjects.iter().map(|s| (s.sex, move |c: &str| s.dim(c))),
+            columns,
+            per_stature,
+        )
+    }
+
+    /// Fits the axis on any bodies of known sex: `bodies` yields each
+    /// body's sex and its value of an ANSUR II column (metres, or `None`
+    /// where it has none); `fitted_on` names them for tables. Bodies
+    /// missing a column are skipped. [`SexAxis::fit`] is this on the
+    /// ANSUR II train split; [`SexAxis::whole_body_population`] on a
+    /// model's training population.
+    ///
+    /// Errors: fewer than `columns + 2` complete bodies of a sex, a
+    /// singular within-sex covariance, unusable columns.
+    pub fn fit_on<F: Fn(&str) -> Option<f64>>(
+        name: &str,
+        fitted_on: &str,
+        bodies: impl IntoIterator<Item = (Sex, F)>,
+        columns: &[String],
+        per_stature: bool,
+    ) -> Result<SexAxis, SexCheckError> {
         if columns.is_empty() {
             return Err(SexCheckError::Columns("no columns given".into()));
         }
@@ -195,6 +224,7 @@ impl SexAxis {
         }
         let mut axis = SexAxis {
             name: name.to_string(),
+            fitted_on: fitted_on.to_string(),
             columns: columns.to_vec(),
             per_stature,
             mean: Vec::new(),
@@ -205,9 +235,9 @@ impl SexAxis {
         };
         let k = columns.len();
         let mut rows: [Vec<Vec<f64>>; 2] = [Vec::new(), Vec::new()];
-        for s in subjects {
-            if let Some(x) = axis.features(|c| s.dim(c)) {
-                rows[sex_index(s.sex)].push(x);
+        for (sex, value) in bodies {
+            if let Some(x) = axis.features(value) {
+                rows[sex_index(sex)].push(x);
             }
         }
         for (i, word) in [(0, "male"), (1, "female")] {
@@ -277,6 +307,42 @@ impl SexAxis {
         let train: Vec<&Subject> = ansur.subjects(None, Split::Train).collect();
         let cols: Vec<String> = TORSO_COLUMNS.iter().map(|c| c.to_string()).collect();
         SexAxis::fit("torso shape", &train, &cols, true)
+    }
+
+    /// The whole-body axis on a model's training population (`table`):
+    /// the same columns as [`Self::whole_body`], those the table has, fitted
+    /// on the population's bodies as the mesh measures them.
+    pub fn whole_body_population(table: &PopulationTable) -> Result<SexAxis, SexCheckError> {
+        let cols: Vec<String> = whole_body_columns()?
+            .into_iter()
+            .filter(|c| table.columns.contains(c))
+            .collect();
+        SexAxis::population("whole body (population)", table, &cols, false)
+    }
+
+    /// The torso-shape axis on a model's training population (`table`).
+    pub fn torso_population(table: &PopulationTable) -> Result<SexAxis, SexCheckError> {
+        let cols: Vec<String> = TORSO_COLUMNS.iter().map(|c| c.to_string()).collect();
+        SexAxis::population("torso shape (population)", table, &cols, true)
+    }
+
+    fn population(
+        name: &str,
+        table: &PopulationTable,
+        columns: &[String],
+        per_stature: bool,
+    ) -> Result<SexAxis, SexCheckError> {
+        let fitted_on = format!("training population: {}", table.source);
+        SexAxis::fit_on(
+            name,
+            &fitted_on,
+            table
+                .rows
+                .iter()
+                .map(|r| (r.sex, move |c: &str| table.value(r, c))),
+            columns,
+            per_stature,
+        )
     }
 
     fn standard(&self, x: &[f64], j: usize) -> f64 {
@@ -605,17 +671,20 @@ pub fn markdown(axes: &[SexAxis], groups: &[Group], input_set: &str, command: &s
     }
     let _ = writeln!(
         s,
-        "\n## The axes (fitted on the ANSUR II train split)\n\n\
-Score: within-sex SDs from the midpoint between the sexes, men positive.\n\n\
-| axis | features | men's mean | women's mean | train men on their side | train women on their side | real men's central 99 % | real women's central 99 % |\n|---|---|---|---|---|---|---|---|"
+        "\n## The axes\n\n\
+Score: within-sex SDs from the midpoint between the sexes, men positive. \
+\"Fit\" columns: the bodies each axis was fitted on (the ANSUR II train split, or the model's \
+training population measured with the `ansur` set).\n\n\
+| axis | fitted on | features | men's mean | women's mean | fit men on their side | fit women on their side | fit men's central 99 % | fit women's central 99 % |\n|---|---|---|---|---|---|---|---|---|"
     );
     for a in axes {
         let (ml, mh) = a.band(Sex::Male);
         let (fl, fh) = a.band(Sex::Female);
         let _ = writeln!(
             s,
-            "| {} | {}{} | {:+.2} | {:+.2} | {:.2} % of {} | {:.2} % of {} | {ml:+.2} .. {mh:+.2} | {fl:+.2} .. {fh:+.2} |",
+            "| {} | {} | {}{} | {:+.2} | {:+.2} | {:.2} % of {} | {:.2} % of {} | {ml:+.2} .. {mh:+.2} | {fl:+.2} .. {fh:+.2} |",
             a.name,
+            a.fitted_on,
             a.columns.len(),
             if a.per_stature { " (/ stature)" } else { "" },
             a.class_mean(Sex::Male),
@@ -633,7 +702,7 @@ Score: within-sex SDs from the midpoint between the sexes, men positive.\n\n\
     let _ = writeln!(
         s,
         "\n## The check\n\nOwn side: the score is on the body's sex's side of the midpoint (the check). \
-Within 99 %: inside the central 99 % of the real same-sex train scores.\n\n\
+Within 99 %: inside the central 99 % of the same-sex scores of the bodies the axis was fitted on (\"outside the real 99 %\" below).\n\n\
 | axis | bodies | sex | n | on their side | wrong side | outside the real 99 % |\n|---|---|---|---|---|---|---|"
     );
     for (a, rows) in axes.iter().zip(&all) {
@@ -696,7 +765,7 @@ Within 99 %: inside the central 99 % of the real same-sex train scores.\n\n\
                 .collect();
             let _ = writeln!(
                 s,
-                "| {} | train split, real | {} | {} |",
+                "| {} | the axis' own fit bodies | {} | {} |",
                 a.name,
                 sex.word(),
                 q.join(" | ")

@@ -15,8 +15,47 @@ use crate::{ModelError, Result, ShapeModel};
 
 /// The file's magic bytes.
 pub const MAGIC: [u8; 8] = *b"TSMODEL\0";
-/// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+/// The format version this build writes. It reads this one and version 1
+/// (before the sex priors: such a model predicts without them).
+pub const FORMAT_VERSION: u32 = 2;
+
+/// A version-1 body: [`ModelFile`] before [`ShapeModel::sex_priors`]
+/// (postcard is not self-describing, so the old layout is spelled out).
+#[derive(serde::Deserialize)]
+struct ModelFileV1 {
+    provenance: Provenance,
+    template: TemplateInfo,
+    measurement_set: MeasurementSetText,
+    model: ShapeModelV1,
+}
+
+#[derive(serde::Deserialize)]
+struct ShapeModelV1 {
+    measurement_names: Vec<String>,
+    pca: crate::pca::Pca,
+    feature_map: crate::regress::FeatureMap,
+    joint: crate::regress::JointGaussian,
+    n_training: usize,
+}
+
+impl From<ModelFileV1> for ModelFile {
+    fn from(v: ModelFileV1) -> Self {
+        let m = v.model;
+        ModelFile {
+            provenance: v.provenance,
+            template: v.template,
+            measurement_set: v.measurement_set,
+            model: ShapeModel {
+                measurement_names: m.measurement_names,
+                pca: m.pca,
+                feature_map: m.feature_map,
+                joint: m.joint,
+                n_training: m.n_training,
+                sex_priors: None,
+            },
+        }
+    }
+}
 
 /// The template the model was trained on: its faces and anatomy.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -95,7 +134,7 @@ impl ModelFile {
             ));
         }
         let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-        if version != FORMAT_VERSION {
+        if version != FORMAT_VERSION && version != 1 {
             return Err(err(format!(
                 "format version {version}, this build reads version {FORMAT_VERSION}: use a matching tapeshape or retrain"
             )));
@@ -117,8 +156,13 @@ impl ModelFile {
         if rest.len() != len + 4 {
             return Err(err("trailing bytes after the checksum".into()));
         }
-        let file: ModelFile =
-            postcard::from_bytes(body).map_err(|e| err(format!("cannot decode the body: {e}")))?;
+        let file: ModelFile = if version == 1 {
+            postcard::from_bytes::<ModelFileV1>(body)
+                .map_err(|e| err(format!("cannot decode the body: {e}")))?
+                .into()
+        } else {
+            postcard::from_bytes(body).map_err(|e| err(format!("cannot decode the body: {e}")))?
+        };
         file.validate().map_err(|e| err(e.to_string()))?;
         Ok(file)
     }

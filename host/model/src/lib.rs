@@ -22,6 +22,8 @@
 //! * [`refine`]: the objectives of step 1 (over the weights) and step 2 (over
 //!   the vertices).
 //! * [`map`]: step 1 as a Gauss-Newton MAP estimate (the default).
+//! * [`sexprior`]: the statistics of each sex's training bodies, the start
+//!   and step 1's prior when the customer's sex is given.
 //! * [`predict`]: the prediction as stages (start, step 1, step 2, the clamp,
 //!   the shared round driver), its settings and its report ([`Prediction`]).
 //! * [`mod@file`]: the versioned model file (see `docs/model-format.md`).
@@ -43,6 +45,7 @@ pub mod predict;
 pub mod reduced;
 pub mod refine;
 pub mod regress;
+pub mod sexprior;
 pub mod smooth_basis;
 
 mod model;
@@ -57,6 +60,7 @@ pub use predict::{
     StageTimings, StartMethod, Step1Clamp, Step1Settings, Step1Solver, Step2Settings, Step2Solver,
     Step2Weighting, Target, Warning,
 };
+pub use sexprior::Sex;
 pub use tapeshape_measure::{Measured, Support, SupportPoint};
 
 /// Millimetres per metre: the optimiser works in mm (see the crate docs).

@@ -10,7 +10,10 @@
 //! under Gaussian reading noise `sd_j` (mm) and the training Gaussian of the
 //! normalised weights (identity covariance):
 //!
-//! `F(w) = sum_j ((m_j(w) - T_j) / sd_j)^2 + |w|^2`.
+//! `F(w) = sum_j ((m_j(w) - T_j) / sd_j)^2 + |w|^2`
+//!
+//! (with the customer's sex, `|w|^2` becomes that sex's
+//! `(w - mu)^T Sigma^-1 (w - mu)`: [`MapProblem::with_prior`]).
 //!
 //! Gauss-Newton linearises `m` at `w`, `m(w') ~ m(w) + J (w' - w)` (J: M x K,
 //! exact from the segment directions), and solves the linear-Gaussian MAP in
@@ -33,6 +36,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::energy::SegmentTerm;
 use crate::refine::segment_rows;
+use crate::sexprior::WeightPrior;
 
 /// The step-1 MAP problem of one round (see the module docs).
 pub struct MapProblem {
@@ -49,6 +53,8 @@ pub struct MapProblem {
     targets: Vec<f64>,
     /// Per reading, the noise standard deviation `sd_j` (mm, > 0).
     sd: Vec<f64>,
+    /// The prior of the weights; `None`: the standard normal, `|w|^2`.
+    prior: Option<WeightPrior>,
 }
 
 /// How a [`MapProblem::solve`] ended.
@@ -86,6 +92,25 @@ impl MapProblem {
             owner,
             targets,
             sd,
+            prior: None,
+        }
+    }
+
+    /// Replaces the standard-normal prior `|w|^2` by `prior`'s penalty
+    /// `(w - mu)^T Sigma^-1 (w - mu)` (a sex's training bodies,
+    /// [`crate::sexprior`]); the solve is then
+    /// `w' = mu + Sigma J^T (J Sigma J^T + S)^-1 (T - m(w) + J w - J mu)`,
+    /// with `mu` and `Sigma` conditioned on the held weights.
+    pub fn with_prior(mut self, prior: Option<WeightPrior>) -> Self {
+        self.prior = prior;
+        self
+    }
+
+    /// The prior's penalty at `w`.
+    fn penalty(&self, w: &[f64]) -> f64 {
+        match &self.prior {
+            Some(p) => p.penalty(w),
+            None => dot(w, w),
         }
     }
 
@@ -144,7 +169,7 @@ impl MapProblem {
             .zip(&self.sd)
             .map(|((v, t), s)| ((v - t) / s).powi(2))
             .sum();
-        data + dot(w, w)
+        data + self.penalty(w)
     }
 
     /// Minimises `F` from `w` (K normalised weights), moving only the
@@ -184,14 +209,30 @@ impl MapProblem {
             let wf = DVector::from_iterator(free.len(), free.iter().map(|&i| w[i]));
             let rhs =
                 DVector::from_iterator(m, (0..m).map(|j| self.targets[j] - vals[j])) + &jf * &wf;
-            let mut a = &jf * jf.transpose();
-            for j in 0..m {
-                a[(j, j)] += self.sd[j] * self.sd[j];
-            }
-            let Some(chol) = a.cholesky() else {
-                break;
+            let target = match &self.prior {
+                None => {
+                    let mut a = &jf * jf.transpose();
+                    for j in 0..m {
+                        a[(j, j)] += self.sd[j] * self.sd[j];
+                    }
+                    let Some(chol) = a.cholesky() else {
+                        break;
+                    };
+                    jf.transpose() * chol.solve(&rhs)
+                }
+                Some(p) => {
+                    let (mu, cov) = p.conditional(&w, &free);
+                    let jc = &jf * &cov;
+                    let mut a = &jc * jf.transpose();
+                    for j in 0..m {
+                        a[(j, j)] += self.sd[j] * self.sd[j];
+                    }
+                    let Some(chol) = a.cholesky() else {
+                        break;
+                    };
+                    &mu + jc.transpose() * chol.solve(&(rhs - &jf * &mu))
+                }
             };
-            let target = jf.transpose() * chol.solve(&rhs);
             // Backtracking along the Gauss-Newton step.
             let mut alpha = 1.0;
             let mut accepted = None;
@@ -304,5 +345,61 @@ mod tests {
         // Then only w1 can fit: 105^2 + (5 w1)^2 = 130^2.
         let want = (130.0f64.powi(2) - 105.0f64.powi(2)).sqrt() / 5.0;
         assert!((w[1].abs() - want).abs() < 1e-3, "{} vs {want}", w[1]);
+    }
+
+    /// A 2-weight prior with mean `mu` and covariance `[[a, c], [c, b]]`.
+    fn prior(mu: [f64; 2], a: f64, b: f64, c: f64) -> WeightPrior {
+        let stats = crate::sexprior::SexStats {
+            n: 10,
+            mean: mu.to_vec(),
+            cov: vec![a, c, c, b],
+            joint: crate::regress::JointGaussian {
+                n_measurements: 0,
+                n_weights: 2,
+                mean: vec![0.0; 2],
+                cov: vec![0.0; 4],
+            },
+        };
+        WeightPrior::of(&stats).unwrap()
+    }
+
+    #[test]
+    fn with_a_sex_prior_the_solve_is_a_stationary_point_of_its_objective() {
+        // A correlated prior away from the origin, a reading that pulls:
+        // the result's objective has zero gradient (by finite differences)
+        // and lies below the objective at the prior's mean and at the
+        // standard-normal solution.
+        let p = problem(125.0, 2.0).with_prior(Some(prior([0.8, -0.6], 0.5, 0.3, 0.2)));
+        let (w, run) = p.solve(&[0.0, 0.0], &[], 100, 1e-15);
+        assert!(run.objective.1 < run.objective.0);
+        for i in 0..2 {
+            let h = 1e-6;
+            let (mut a, mut b) = (w.clone(), w.clone());
+            a[i] += h;
+            b[i] -= h;
+            let g = (p.objective(&a) - p.objective(&b)) / (2.0 * h);
+            assert!(g.abs() < 1e-4, "d F / d w{i} = {g} at {w:?}");
+        }
+        let standard = problem(125.0, 2.0).solve(&[0.0, 0.0], &[], 100, 1e-15).0;
+        assert!(p.objective(&w) < p.objective(&standard));
+        assert!(p.objective(&w) < p.objective(&[0.8, -0.6]));
+        // Without a reading's pull (huge noise) the result is the prior's mean.
+        let loose = problem(125.0, 1e6).with_prior(Some(prior([0.8, -0.6], 0.5, 0.3, 0.2)));
+        let (w, _) = loose.solve(&[0.0, 0.0], &[], 100, 1e-15);
+        assert!(
+            (w[0] - 0.8).abs() < 1e-6 && (w[1] + 0.6).abs() < 1e-6,
+            "{w:?}"
+        );
+    }
+
+    #[test]
+    fn with_a_sex_prior_held_weights_condition_the_rest() {
+        // w0 held at 2.0; with no reading's pull the free w1 goes to the
+        // prior's conditional mean -0.6 + c / a (2.0 - 0.8).
+        let loose = problem(125.0, 1e6).with_prior(Some(prior([0.8, -0.6], 0.5, 0.3, 0.2)));
+        let (w, _) = loose.solve(&[2.0, 0.0], &[true, false], 100, 1e-15);
+        assert_eq!(w[0], 2.0);
+        let want = -0.6 + 0.2 / 0.5 * 1.2;
+        assert!((w[1] - want).abs() < 1e-6, "{} vs {want}", w[1]);
     }
 }

@@ -5,6 +5,7 @@ use tapeshape_mesh::Vec3;
 
 use crate::pca::Pca;
 use crate::regress::{FeatureMap, JointGaussian};
+use crate::sexprior::{Sex, SexPriors, WeightPrior};
 use crate::{ModelError, Result};
 
 /// Settings of [`ShapeModel::fit`].
@@ -49,6 +50,10 @@ pub struct ShapeModel {
     pub joint: JointGaussian,
     /// Number of training bodies N.
     pub n_training: usize,
+    /// The statistics of each sex's training bodies, for predictions given
+    /// the customer's sex ([`crate::sexprior`]); `None` when the population
+    /// did not record sexes or a sex had too few bodies.
+    pub sex_priors: Option<SexPriors>,
 }
 
 impl ShapeModel {
@@ -61,6 +66,21 @@ impl ShapeModel {
         meshes: &[&[Vec3]],
         measurements: &[Vec<f64>],
         names: &[String],
+        settings: &FitSettings,
+    ) -> Result<Self> {
+        ShapeModel::fit_with_sexes(meshes, measurements, names, None, settings)
+    }
+
+    /// [`ShapeModel::fit`], and where `sexes` (one per body, `None` where
+    /// unknown) is given, the statistics of each sex for sex-conditioned
+    /// predictions ([`crate::sexprior::SexPriors::fit`]).
+    ///
+    /// Errors as [`ShapeModel::fit`], and if `sexes` does not have N entries.
+    pub fn fit_with_sexes(
+        meshes: &[&[Vec3]],
+        measurements: &[Vec<f64>],
+        names: &[String],
+        sexes: Option<&[Option<Sex>]>,
         settings: &FitSettings,
     ) -> Result<Self> {
         let n = meshes.len();
@@ -120,13 +140,30 @@ impl ShapeModel {
         let p = DMatrix::from_fn(n, m, |i, j| measurements[i][j]);
         let feature_map = FeatureMap::fit(&p, &fit.weights)?;
         let joint = JointGaussian::fit(&p, &fit.weights)?;
+        let sex_priors = match sexes {
+            Some(s) => SexPriors::fit(&p, &fit.weights, s)?,
+            None => None,
+        };
         Ok(Self {
             measurement_names: names.to_vec(),
             pca: fit.pca,
             feature_map,
             joint,
             n_training: n,
+            sex_priors,
         })
+    }
+
+    /// The step-1 prior for a customer of `sex`: that sex's training
+    /// bodies when the model has sex priors, else `None` (the standard
+    /// normal `|w|^2`).
+    ///
+    /// Errors: a damaged prior (not positive definite).
+    pub fn weight_prior(&self, sex: Option<Sex>) -> Result<Option<WeightPrior>> {
+        match (sex, &self.sex_priors) {
+            (Some(sex), Some(p)) => WeightPrior::of(p.get(sex)).map(Some),
+            _ => Ok(None),
+        }
     }
 
     /// Number of template vertices V.
@@ -193,6 +230,18 @@ impl ShapeModel {
     /// entering as observation noise. `given` holds (index, value in metres,
     /// tolerance in metres or 0).
     pub fn start_weights(&self, given: &[(usize, f64, f64)]) -> Result<Vec<f64>> {
+        self.start_weights_for(given, None)
+    }
+
+    /// [`ShapeModel::start_weights`] for a customer of known `sex`: the
+    /// conditional under the joint Gaussian of that sex's training bodies
+    /// when the model has sex priors (feature analysis, the paper's start
+    /// with every measurement given exactly, stays pooled).
+    pub fn start_weights_for(
+        &self,
+        given: &[(usize, f64, f64)],
+        sex: Option<Sex>,
+    ) -> Result<Vec<f64>> {
         let m = self.n_measurements();
         if given.len() == m && given.iter().all(|g| g.2 == 0.0) {
             let mut p = vec![0.0; m];
@@ -204,8 +253,11 @@ impl ShapeModel {
         let wanted: Vec<usize> = (m..m + self.n_components()).collect();
         let observed: Vec<(usize, f64, f64)> =
             given.iter().map(|&(j, x, t)| (j, x, t * t)).collect();
-        Ok(self
-            .joint
+        let joint = match (sex, &self.sex_priors) {
+            (Some(sex), Some(p)) => &p.get(sex).joint,
+            _ => &self.joint,
+        };
+        Ok(joint
             .conditional(&wanted, &observed)?
             .mean
             .iter()
@@ -284,6 +336,9 @@ impl ShapeModel {
             || j.cov.len() != dim * dim
         {
             return bad("joint statistics dimensions".into());
+        }
+        if let Some(sp) = &self.sex_priors {
+            sp.validate(m, k)?;
         }
         let all = self
             .pca

@@ -17,6 +17,7 @@ pub use crate::lbfgs::{
     minimise, minimise_watched, Control, Lbfgs, LineSearch, MinimiseError, Objective, RunInfo,
     StopRule, Termination,
 };
+use crate::sexprior::WeightPrior;
 
 /// Step 1: `E_m` as a function of the normalised weights `w` (length K).
 ///
@@ -27,6 +28,7 @@ pub use crate::lbfgs::{
 /// the mean shape. These are built once per round, so an evaluation costs
 /// O(3 K) per segment and never touches the rest of the mesh; the gradient is
 /// `sum_e C_e^T dE/dd_e`, the chain rule through the PCA basis.
+#[derive(Clone)]
 pub struct WeightObjective {
     k: usize,
     /// Per segment, 3 rows of K entries (`C_e`, row-major).
@@ -37,6 +39,8 @@ pub struct WeightObjective {
     terms: Vec<SegmentTerm>,
     /// Coefficient of the Gaussian prior term `prior |w|^2` (0: none).
     prior: f64,
+    /// The prior's shape: `None`, `|w|^2`; a sex's prior, its penalty.
+    gaussian: Option<WeightPrior>,
     /// `held[i]`: weight i does not move (its gradient is zeroed); empty: all move.
     held: Vec<bool>,
 }
@@ -59,8 +63,17 @@ impl WeightObjective {
             base,
             terms,
             prior: 0.0,
+            gaussian: None,
             held: Vec::new(),
         }
+    }
+
+    /// Uses `gaussian`'s penalty `(w - mu)^T Sigma^-1 (w - mu)` in place of
+    /// `|w|^2` in the prior term (a sex's training bodies,
+    /// [`crate::sexprior`]); the coefficient stays [`Self::with_prior`]'s.
+    pub fn with_gaussian(mut self, gaussian: Option<WeightPrior>) -> Self {
+        self.gaussian = gaussian;
+        self
     }
 
     /// Adds the Gaussian prior of the normalised weights, `prior |w|^2`, to
@@ -146,8 +159,16 @@ impl Objective for WeightObjective {
             }
         }
         if self.prior != 0.0 {
-            e += self.prior * dot(w, w);
-            axpy(2.0 * self.prior, w, grad);
+            match &self.gaussian {
+                None => {
+                    e += self.prior * dot(w, w);
+                    axpy(2.0 * self.prior, w, grad);
+                }
+                Some(g) => {
+                    e += self.prior * g.penalty(w);
+                    g.add_gradient(w, self.prior, grad);
+                }
+            }
         }
         for (g, &h) in grad.iter_mut().zip(&self.held) {
             if h {
@@ -239,31 +260,50 @@ mod tests {
                 weight: 0.5,
             },
         ];
-        let obj = WeightObjective {
+        let plain = WeightObjective {
             k,
             rows,
             base,
             terms,
             prior: 0.3,
+            gaussian: None,
             held: Vec::new(),
         };
-        let w = vec![0.3, -0.7, 1.1];
-        let mut g = vec![0.0; k];
-        obj.eval(&w, &mut g);
-        let mut scratch = vec![0.0; k];
-        for j in 0..k {
-            let h = 1e-6;
-            let mut wp = w.clone();
-            wp[j] += h;
-            let fp = obj.eval(&wp, &mut scratch);
-            wp[j] -= 2.0 * h;
-            let fm = obj.eval(&wp, &mut scratch);
-            let fd = (fp - fm) / (2.0 * h);
-            assert!(
-                (fd - g[j]).abs() < 1e-6 * g[j].abs().max(1.0),
-                "{j}: {fd} vs {}",
-                g[j]
-            );
+        // And with a sex prior's penalty in place of |w|^2.
+        let stats = crate::sexprior::SexStats {
+            n: 10,
+            mean: vec![0.5, -0.2, 0.1],
+            cov: vec![0.6, 0.1, 0.0, 0.1, 0.4, 0.05, 0.0, 0.05, 0.3],
+            joint: crate::regress::JointGaussian {
+                n_measurements: 0,
+                n_weights: 3,
+                mean: vec![0.0; 3],
+                cov: vec![0.0; 9],
+            },
+        };
+        let sexed = WeightObjective {
+            gaussian: Some(WeightPrior::of(&stats).unwrap()),
+            ..plain.clone()
+        };
+        for obj in [plain, sexed] {
+            let w = vec![0.3, -0.7, 1.1];
+            let mut g = vec![0.0; k];
+            obj.eval(&w, &mut g);
+            let mut scratch = vec![0.0; k];
+            for j in 0..k {
+                let h = 1e-6;
+                let mut wp = w.clone();
+                wp[j] += h;
+                let fp = obj.eval(&wp, &mut scratch);
+                wp[j] -= 2.0 * h;
+                let fm = obj.eval(&wp, &mut scratch);
+                let fd = (fp - fm) / (2.0 * h);
+                assert!(
+                    (fd - g[j]).abs() < 1e-6 * g[j].abs().max(1.0),
+                    "{j}: {fd} vs {}",
+                    g[j]
+                );
+            }
         }
     }
 

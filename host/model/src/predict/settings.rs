@@ -18,6 +18,7 @@
 //! is one L-BFGS now; the continuation's old wall-clock budget becomes the
 //! default evaluation budget).
 
+use crate::sexprior::Sex;
 use serde::{Deserialize, Serialize};
 
 use crate::gauss_newton::GaussNewtonStop;
@@ -465,6 +466,8 @@ pub struct ReadingsConfig {
 pub struct StartConfig {
     /// The clamp `l` of the normalised weights.
     pub(crate) l: f64,
+    /// The customer's sex, where given ([`PredictConfig::with_sex`]).
+    pub(crate) sex: Option<Sex>,
 }
 
 /// Step 1, resolved.
@@ -477,6 +480,8 @@ pub struct Step1Config {
     /// The clamp after step 1.
     pub(crate) l: f64,
     pub(crate) components: Option<usize>,
+    /// The customer's sex, where given ([`PredictConfig::with_sex`]).
+    pub(crate) sex: Option<Sex>,
 }
 
 /// What step 1's rounds run, with every default resolved.
@@ -663,12 +668,13 @@ impl PredictConfig {
             readings: ReadingsConfig {
                 reference_tolerance: reference,
             },
-            start: StartConfig { l },
+            start: StartConfig { l, sex: None },
             step1: Step1Config {
                 solver,
                 box_l: (s1.clamp == Step1Clamp::InsideBox).then_some(l),
                 l,
                 components: s1.components,
+                sex: None,
             },
             step2: Step2Config {
                 lambda: s2.lambda,
@@ -737,6 +743,21 @@ impl PredictConfig {
     /// How readings are weighted.
     pub fn readings(&self) -> &ReadingsConfig {
         &self.readings
+    }
+
+    /// The same configuration for a customer of known `sex` (`None`: not
+    /// given): the start and step 1 then use the statistics of that sex's
+    /// training bodies where the model has them ([`crate::sexprior`]); a
+    /// model without them predicts as without the sex.
+    pub fn with_sex(mut self, sex: Option<Sex>) -> Self {
+        self.start.sex = sex;
+        self.step1.sex = sex;
+        self
+    }
+
+    /// The customer's sex this configuration predicts for.
+    pub fn sex(&self) -> Option<Sex> {
+        self.start.sex
     }
 
     /// The start.

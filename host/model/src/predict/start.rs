@@ -7,7 +7,9 @@
 //! normalised weights on the given readings under the training statistics
 //! (tolerances as observation noise), which coincides with feature analysis
 //! when everything is given and the training set is large (method notes).
-//! Each weight is then clamped to `[-l, l]` ([`super::clamp`]).
+//! Each weight is then clamped to `[-l, l]` ([`super::clamp`]). With the
+//! customer's sex, the conditional is that sex's training bodies'
+//! ([`crate::sexprior`]).
 
 use tapeshape_measure::Measured;
 use tapeshape_mesh::Vec3;
@@ -70,7 +72,7 @@ impl ShapeModel {
                 (g.index, g.target_mm / MM_PER_M, tol)
             })
             .collect();
-        let mut weights = self.start_weights(&observed)?;
+        let mut weights = self.start_weights_for(&observed, config.sex)?;
         if weights.iter().any(|x| !x.is_finite()) {
             return Err(ModelError::NonFinite("start weights".into()));
         }

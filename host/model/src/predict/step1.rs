@@ -13,7 +13,8 @@
 //!   re-measured objective; a round it cannot improve, and every
 //!   continuation round, run L-BFGS on `E_m` with the same prior;
 //!
-//! then the clamp ([`super::clamp`]). A step 1 that ends with a higher
+//! then the clamp ([`super::clamp`]). With the customer's sex, the prior
+//! `|w|^2` is that sex's training bodies' Gaussian ([`crate::sexprior`]). A step 1 that ends with a higher
 //! objective than its start (the MAP objective for Gauss-Newton, `E_m` with
 //! targets set on each shape otherwise) is undone with a warning.
 
@@ -31,6 +32,7 @@ use super::warning::{Step1Objective, Warning};
 use super::Measurer;
 use crate::lbfgs::{minimise_watched, RunInfo, Termination};
 use crate::map::MapProblem;
+use crate::sexprior::WeightPrior;
 use crate::{ModelError, Result, ShapeModel};
 
 /// Step 1's result: the clamped weights, their shape and the readings
@@ -69,6 +71,8 @@ struct Step1Rounds<'a> {
     x: Vec<Vec3>,
     /// Per reading, the Gauss-Newton MAP's noise (mm).
     map_sd: Vec<f64>,
+    /// The prior of the weights (`None`: the standard normal).
+    prior: Option<&'a WeightPrior>,
 }
 
 impl Step1Rounds<'_> {
@@ -106,14 +110,15 @@ impl Step1Rounds<'_> {
             owner,
             self.readings.iter().map(|g| g.target_mm).collect(),
             self.map_sd.clone(),
-        );
+        )
+        .with_prior(self.prior.cloned());
         let (w_gn, run) = problem.solve(&self.w, &self.held, max_iters, 1e-12);
         // The solve holds this round's supports fixed; where a support
         // changes under the step (a hull gains or loses points, a landmark
         // plane moves), the real values differ from the linearised ones.
         // Backtrack on the real (re-measured) objective.
         let real = |meas: &[Measured], w: &[f64]| -> f64 {
-            map_objective(self.readings, meas, &self.map_sd, w)
+            map_objective(self.readings, meas, &self.map_sd, w, self.prior)
         };
         let f_here = real(measured, &self.w);
         let mut alpha = 1.0;
@@ -223,7 +228,7 @@ impl RoundStep for Step1Rounds<'_> {
         let lbfgs = self.lbfgs().clone();
         let mut obj = self.model.localise(&terms);
         if let Some(tau) = lbfgs.prior.tau_mm(self.readings.any_tolerance()) {
-            obj = obj.with_prior(tau * tau);
+            obj = obj.with_prior(tau * tau).with_gaussian(self.prior.cloned());
         }
         if self.held.iter().any(|&h| h) {
             obj = obj.with_held(self.held.clone());
@@ -260,6 +265,8 @@ impl ShapeModel {
         measurer: &dyn Measurer,
         observer: &dyn PredictObserver,
     ) -> Result<Step1Shape> {
+        let prior = self.weight_prior(config.sex)?;
+        let prior = prior.as_ref();
         let mut held = vec![false; self.n_components()];
         if let Some(k) = config.components {
             held.iter_mut().skip(k).for_each(|h| *h = true);
@@ -284,6 +291,7 @@ impl ShapeModel {
             held,
             x: Vec::new(),
             map_sd,
+            prior,
         };
         let thresholds = thresholds(
             readings,
@@ -301,7 +309,8 @@ impl ShapeModel {
         // per-segment targets, so it is judged by that objective.
         let (err_start, err1, what) = match &config.solver {
             Step1Method::GaussNewtonMap { .. } => {
-                let f = |meas: &[Measured], w: &[f64]| map_objective(readings, meas, &map_sd, w);
+                let f =
+                    |meas: &[Measured], w: &[f64]| map_objective(readings, meas, &map_sd, w, prior);
                 (
                     f(&start.measured, &start.weights),
                     f(&meas1, &w),

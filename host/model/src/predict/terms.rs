@@ -13,6 +13,7 @@ use super::settings::EnergyWeighting;
 use super::warning::Warning;
 use crate::energy::{measurement_energy, segment_terms, SegmentTerm};
 use crate::refine::WeightObjective;
+use crate::sexprior::WeightPrior;
 use crate::{ShapeModel, MM_PER_M};
 
 /// Positions from metres to millimetres.
@@ -30,15 +31,25 @@ pub(crate) fn to_m(x: &[Vec3]) -> Vec<Vec3> {
 }
 
 /// The MAP objective of [`crate::map`] on real measured values:
-/// `sum_j ((m_j - T_j) / sd_j)^2 + |w|^2` (`sd` per given reading, mm).
-pub(crate) fn map_objective(given: &Readings, measured: &[Measured], sd: &[f64], w: &[f64]) -> f64 {
+/// `sum_j ((m_j - T_j) / sd_j)^2 + |w|^2` (`sd` per given reading, mm), or
+/// with `prior` its penalty in place of `|w|^2`.
+pub(crate) fn map_objective(
+    given: &Readings,
+    measured: &[Measured],
+    sd: &[f64],
+    w: &[f64],
+    prior: Option<&WeightPrior>,
+) -> f64 {
     given
         .iter()
         .zip(measured)
         .zip(sd)
         .map(|((g, m), s)| ((m.value * MM_PER_M - g.target_mm) / s).powi(2))
         .sum::<f64>()
-        + w.iter().map(|x| x * x).sum::<f64>()
+        + match prior {
+            Some(p) => p.penalty(w),
+            None => w.iter().map(|x| x * x).sum::<f64>(),
+        }
 }
 
 impl ShapeModel {
