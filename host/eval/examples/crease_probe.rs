@@ -26,9 +26,10 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use rayon::prelude::*;
-use tapeshape_eval::customers::{entered_readings, inputs_of, test_people, CustomersOptions};
+use tapeshape_eval::customers::{
+    entered_readings, inputs_of, measuring_set, test_people, within_iso, CustomersOptions,
+};
 use tapeshape_eval::surface::SurfaceCheck;
-use tapeshape_measure::MeasurementSet;
 use tapeshape_population::ansur::Ansur;
 use tapeshape_population::Dataset;
 
@@ -93,12 +94,7 @@ fn real_main() -> Result<(), String> {
     let check = SurfaceCheck::from_datasets(&read(&train)?, Some(&read(&held)?))
         .map_err(|e| e.to_string())?;
     let entered = entered_readings(est, &opts).map_err(|e| e.to_string())?;
-    let text =
-        tapeshape_estimator::union_set_text(&["ansur", "quick"]).map_err(|e| e.to_string())?;
-    let union = MeasurementSet::from_toml_str(&text, "ansur+quick").map_err(|e| e.to_string())?;
-    let compiled = union
-        .compile(est.topology(), &tapeshape_body::anatomy::anatomy())
-        .map_err(|e| e.to_string())?;
+    let (union, compiled) = measuring_set(est).map_err(|e| e.to_string())?;
     let ansur = Ansur::get().map_err(|e| e.to_string())?;
     let people = test_people(ansur, Some(per_sex));
     let factors = [1.0, 0.75, 0.5, 0.35, 0.25, 0.1, 0.0];
@@ -141,9 +137,8 @@ fn real_main() -> Result<(), String> {
                         let (Some(val), Some(j)) = (s.dim(col), union.index_of(name)) else {
                             continue;
                         };
-                        let tol = union.definitions[j].tolerance.mm() / 1000.0;
                         n += 1;
-                        ok += usize::from((m[j].value - val).abs() <= tol);
+                        ok += usize::from(within_iso(&union, j, m[j].value, val));
                     }
                     Ok((v.pass, v.excess.share(), ok, n))
                 })

@@ -339,6 +339,22 @@ pub fn inputs_of(s: &Subject, entered: &[(String, String)], with_sex: bool) -> I
     inputs
 }
 
+/// The `ansur` and `quick` sets as one set, and compiled on `estimator`'s
+/// template: what every body of a run is measured with.
+pub fn measuring_set(estimator: &Estimator) -> Result<(MeasurementSet, CompiledSet), EvalError> {
+    let text = tapeshape_estimator::union_set_text(&["ansur", "quick"])
+        .map_err(|e| EvalError::Data(e.to_string()))?;
+    let union = MeasurementSet::from_toml_str(&text, "ansur+quick")?;
+    let compiled = union.compile(estimator.topology(), &tapeshape_body::anatomy::anatomy())?;
+    Ok((union, compiled))
+}
+
+/// Whether `measured` (metres, member `j` of `union`) meets the real value
+/// `real` (metres) within the member's ISO 20685-1 allowable error.
+pub fn within_iso(union: &MeasurementSet, j: usize, measured: f64, real: f64) -> bool {
+    (measured - real).abs() <= union.definitions[j].tolerance.mm() / 1000.0
+}
+
 /// Runs every test-split person through `estimator` (see the module docs).
 pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRun, EvalError> {
     run_with_surface(estimator, opts, None)
@@ -359,10 +375,7 @@ pub fn run_with_surface(
             .check_topology(estimator.topology())
             .map_err(|e| data(&e))?;
     }
-    let text = tapeshape_estimator::union_set_text(&["ansur", "quick"]).map_err(|e| data(&e))?;
-    let union = MeasurementSet::from_toml_str(&text, "ansur+quick")?;
-    let compiled: CompiledSet =
-        union.compile(estimator.topology(), &tapeshape_body::anatomy::anatomy())?;
+    let (union, compiled) = measuring_set(estimator)?;
     let entered = entered_readings(estimator, opts)?;
     let in_cols: Vec<String> = entered.iter().map(|(_, c)| c.clone()).collect();
     let ansur_set = MeasurementSet::load("ansur")?;
@@ -398,10 +411,7 @@ pub fn run_with_surface(
                         r.entered = idx
                             .iter()
                             .filter(|(j, _)| *j < r.body.len())
-                            .map(|&(j, v)| {
-                                let tol = union.definitions[j].tolerance.mm() / 1000.0;
-                                (j, v, (r.body[j] - v).abs() <= tol)
-                            })
+                            .map(|&(j, v)| (j, v, within_iso(&union, j, r.body[j], v)))
                             .collect();
                         r.flipped = est.report.prediction.plausibility.flipped_triangles;
                         // The topology was checked above: judging cannot fail.
