@@ -18,7 +18,7 @@
 
 use criterion::{criterion_main, Criterion};
 use tapeshape_estimator::{train, Estimator, Inputs, PredictOptions, TrainSettings, DEFAULT_SETS};
-use tapeshape_model::{PredictSettings, Step2Solver};
+use tapeshape_model::PredictSettings;
 use tapeshape_population::{generate_population, Dataset, PopulationSettings};
 
 fn bench_predict(c: &mut Criterion) {
@@ -49,16 +49,20 @@ fn bench_predict(c: &mut Criterion) {
         }
         inputs
     };
-    // The default, then step 2 in the smooth basis (issue 13): each set
-    // once with the default and once with the option, alternating, so that
-    // a change of load hits both alike.
+    // The default (step 2 tries the smooth basis first, issue 13), then
+    // the default before it (step 2 by the paper's L-BFGS alone), each set
+    // once with each, alternating, so that a change of load hits both
+    // alike. Both with the station's real-people soft targets.
     let default = PredictOptions::default();
-    let mut smooth_settings = PredictSettings::default();
-    smooth_settings.step2.solver = Step2Solver::smooth_basis();
-    let smooth = PredictOptions::custom(smooth_settings);
+    let mut lbfgs_settings = PredictSettings::default();
+    lbfgs_settings.step2.first = None;
+    let lbfgs = PredictOptions {
+        real_people: Some(default.real_people()),
+        ..PredictOptions::custom(lbfgs_settings)
+    };
     // The basis is computed once per process (not part of a prediction).
     estimator
-        .predict(&inputs_of("quick"), &smooth)
+        .predict(&inputs_of("quick"), &default)
         .expect("predict");
     let mut g = c.benchmark_group("predict");
     g.sample_size(20);
@@ -72,8 +76,8 @@ fn bench_predict(c: &mut Criterion) {
         g.bench_function(label, |b| {
             b.iter(|| estimator.predict(&inputs, &default).expect("predict"))
         });
-        g.bench_function(format!("{label}_smooth_step2"), |b| {
-            b.iter(|| estimator.predict(&inputs, &smooth).expect("predict"))
+        g.bench_function(format!("{label}_lbfgs_step2"), |b| {
+            b.iter(|| estimator.predict(&inputs, &lbfgs).expect("predict"))
         });
     }
     g.finish();

@@ -22,7 +22,8 @@
 //! `settings_from_args`): `--paper` for the paper's exact pipeline, and
 //! `--gn`, `--w1`, `--w2`, `--w2-scale`, `--prior`, `--k1`, `--box`,
 //! `--cont`, `--budget`, `--iters1`, `--iters2`, `--solver2 lbfgs|gn|smooth|smooth:MODES[:POLISH]` (step 2's
-//! solver), `--l`, `--lambda`, `--s`.
+//! solver), `--first none|smooth` (a step-2 solver tried first, kept when it
+//! meets every reading), `--l`, `--lambda`, `--s`.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -339,6 +340,7 @@ fn tally(
     settings: &PredictOptions,
     shares: &mut Shares,
     refused: &mut Vec<String>,
+    first: &mut [usize; 2],
 ) -> Result<(), Box<dyn std::error::Error>> {
     let est = match estimator.predict(inputs, settings) {
         Ok(e) => e,
@@ -355,6 +357,9 @@ fn tally(
         }
         Err(e) => return Err(e.into()),
     };
+    if let Some(f) = &est.report.prediction.step2_first {
+        first[usize::from(!f.kept)] += 1;
+    }
     for r in &inputs.readings {
         let j = estimator.set().index_of(&r.name).expect("known");
         let tol = estimator.set().definitions[j].tolerance.mm();
@@ -371,8 +376,20 @@ fn tally(
     Ok(())
 }
 
-fn print_shares(title: &str, estimator: &Estimator, shares: &Shares, refused: &[String]) {
+/// Prints one table; `first`: estimates whose step-2 first solver was
+/// kept and fell back.
+fn print_shares(
+    title: &str,
+    estimator: &Estimator,
+    shares: &Shares,
+    refused: &[String],
+    first: [usize; 2],
+) {
     println!("\n{title}\n");
+    let [kept, fell_back] = first;
+    if kept + fell_back > 0 {
+        println!("step 2's first solver: kept in {kept}, fell back in {fell_back}\n");
+    }
     println!("| measurement | ISO tolerance mm | passed | share |");
     println!("|---|---|---|---|");
     let (mut p, mut t) = (0, 0);
@@ -434,6 +451,7 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         if let Some(h) = &heldout {
             let (mut full, mut sub, mut rf, mut rs) =
                 (Shares::new(), Shares::new(), vec![], vec![]);
+            let (mut ff, mut fs) = ([0; 2], [0; 2]);
             for body in h.bodies.iter().take(n) {
                 let truth: Vec<f64> = idx
                     .iter()
@@ -443,7 +461,7 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 for (name, v) in names.iter().zip(&truth) {
                     inputs.insert_metres(name, *v)?;
                 }
-                tally(&estimator, &inputs, &settings, &mut full, &mut rf)?;
+                tally(&estimator, &inputs, &settings, &mut full, &mut rf, &mut ff)?;
                 if set == "quick" {
                     for _ in 0..n_subsets {
                         let mut order: Vec<usize> = (0..names.len()).collect();
@@ -455,7 +473,7 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                         for &a in &order[..k] {
                             inputs.insert_metres(&names[a], truth[a])?;
                         }
-                        tally(&estimator, &inputs, &settings, &mut sub, &mut rs)?;
+                        tally(&estimator, &inputs, &settings, &mut sub, &mut rs, &mut fs)?;
                     }
                 }
             }
@@ -468,6 +486,7 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 &estimator,
                 &full,
                 &rf,
+                ff,
             );
             if set == "quick" {
                 print_shares(
@@ -475,12 +494,13 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                     &estimator,
                     &sub,
                     &rs,
+                    fs,
                 );
             }
         }
         if n_ansur > 0 {
             let ansur = Ansur::get()?;
-            let (mut sh, mut rf) = (Shares::new(), vec![]);
+            let (mut sh, mut rf, mut ff) = (Shares::new(), vec![], [0; 2]);
             let mut used = 0;
             for subject in ansur.subjects(None, Split::Test).take(n_ansur) {
                 let mut inputs = Inputs::new();
@@ -492,9 +512,9 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                     }
                 }
                 used += 1;
-                tally(&estimator, &inputs, &settings, &mut sh, &mut rf)?;
+                tally(&estimator, &inputs, &settings, &mut sh, &mut rf, &mut ff)?;
             }
-            print_shares(&format!("{set}: {used} ANSUR II test-split subjects (ids divisible by 4), their real values as input (a fit check)"), &estimator, &sh, &rf);
+            print_shares(&format!("{set}: {used} ANSUR II test-split subjects (ids divisible by 4), their real values as input (a fit check)"), &estimator, &sh, &rf, ff);
         }
     }
     Ok(())
@@ -618,6 +638,9 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                     "  step2 run {k}: {} it, E {:.3e} -> {:.3e}, {}",
                     run.iterations, run.cost_start, run.cost_end, run.reason
                 );
+            }
+            if let Some(f) = &r.step2_first {
+                println!("  step2 first solver: kept {}, misses {}", f.kept, f.misses);
             }
             println!(
                 "  time: step1 {:.0} ms, step2 {:.0} ms",
@@ -783,6 +806,13 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
     }
     if let Some(v) = arg(args, "--iters2") {
         *s.step2.solver.max_iters_mut() = v.parse()?;
+    }
+    if let Some(v) = arg(args, "--first") {
+        s.step2.first = match v.as_str() {
+            "none" => None,
+            "smooth" => Some(Step2Solver::smooth_basis()),
+            other => return Err(format!("--first none|smooth, got {other}").into()),
+        };
     }
     Ok(s)
 }

@@ -151,6 +151,29 @@ impl Estimator {
         }
     }
 
+    /// Makes ready what an estimate with `options` computes once per
+    /// process: the template's smooth basis where step 2 uses it (the
+    /// default tries it first), read from the cache directory where there
+    /// is one and it holds the basis, else computed (about 1.3 s) and
+    /// written there. The station calls it at start-up, so that its first
+    /// estimate is as fast as the tenth; [`Estimator::predict`] calls it
+    /// too (then it costs nothing). A basis that cannot be computed is left
+    /// to the estimate, which reports it.
+    pub fn warm_up(&self, options: &PredictOptions) {
+        let step2 = options.settings().step2;
+        for solver in std::iter::once(step2.solver).chain(step2.first) {
+            if let tapeshape_model::Step2Solver::SmoothBasis { modes, .. } = solver {
+                let (n, edges) = (self.topology.n_vertices(), self.topology.edges());
+                match CACHE_DIR.get() {
+                    Some(dir) => crate::basis_cache::prepare(dir, n, edges, modes),
+                    None => {
+                        let _ = tapeshape_model::smooth_basis::SmoothBasis::shared(n, edges, modes);
+                    }
+                }
+            }
+        }
+    }
+
     /// The model file.
     pub fn file(&self) -> &ModelFile {
         &self.file
@@ -240,17 +263,8 @@ impl Estimator {
             soft_targets.push(entry);
         }
         // The smooth-basis step 2's basis: from the cache directory where
-        // there is one (else the model computes it on first use).
-        if let (tapeshape_model::Step2Solver::SmoothBasis { modes, .. }, Some(dir)) =
-            (config.settings().step2.solver, CACHE_DIR.get())
-        {
-            crate::basis_cache::prepare(
-                dir,
-                self.topology.n_vertices(),
-                self.topology.edges(),
-                modes,
-            );
-        }
+        // there is one (else computed once per process).
+        self.warm_up(options);
         let p = self
             .file
             .model

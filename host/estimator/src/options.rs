@@ -44,7 +44,8 @@ pub struct PredictOptions {
     /// Weight of step 2's bending term (the displacement's curvature, which
     /// keeps a body entered with many readings from creasing; see
     /// [`tapeshape_model::Step2Settings::bending`]); `None`: the pipeline's
-    /// (0, none).
+    /// (0, none). Above 0 it also drops step 2's smooth basis tried first
+    /// (which does not take the term): step 2 is L-BFGS alone.
     #[serde(default)]
     pub bending: Option<f64>,
     /// How real people guide what was not measured ([`crate::priors`]):
@@ -90,6 +91,16 @@ impl PredictOptions {
         }
         if let Some(bending) = self.bending {
             s.step2.bending = bending;
+            // The smooth basis tried first does not take the bending term:
+            // with it, step 2 is the chosen solver alone.
+            if bending > 0.0
+                && matches!(
+                    s.step2.first,
+                    Some(tapeshape_model::Step2Solver::SmoothBasis { .. })
+                )
+            {
+                s.step2.first = None;
+            }
         }
         s
     }

@@ -10,7 +10,8 @@
 //! ```text
 //! cargo run --release -p tapeshape-eval --example crease_probe -- \
 //!     --train POP.tsd --held HELD.tsd --set ansur --per-sex 8 \
-//!     [--variant blend|shrink|trunc] [--l L] [--lambda X] [--bending MU] [--leave-out COL,COL]
+//!     [--variant blend|shrink|trunc] [--l L] [--lambda X] [--bending MU] [--solver2 lbfgs|gn]
+//!     [--leave-out COL,COL]
 //! ```
 //!
 //! Variants, for a mixing factor `a` from 1 to 0: `blend` (default) the
@@ -18,7 +19,7 @@
 //! `x2`; `shrink` the PCA shape of `a` times step 1's weights; `trunc` the
 //! PCA shape of step 1's first `100 a` weights. `--l`, `--lambda` and
 //! `--bending` set the step-1 clamp, step 2's smoothness weight and its
-//! bending term; `--leave-out` drops
+//! bending term; `--solver2 gn` runs step 2 by sparse Gauss-Newton; `--leave-out` drops
 //! ANSUR II columns from the input. Also printed: how many of step 1's
 //! weights sit at the clamp (|w| > 0.999 l). The embedded default model.
 
@@ -68,7 +69,21 @@ fn real_main() -> Result<(), String> {
     let est = tapeshape_estimator::Estimator::default_model().map_err(|e| e.to_string())?;
     // The station's pipeline (with its real-people soft targets), with the
     // clamp and smoothness given.
+    // `--solver2 gn`: step 2 by the sparse Gauss-Newton solver, the rest
+    // as the station's (its real-people soft targets kept).
+    let mut station = tapeshape_model::PredictSettings::default();
+    match get("--solver2").as_deref() {
+        None | Some("lbfgs") => {}
+        Some("gn") => {
+            station.step2.solver = tapeshape_model::Step2Solver::GaussNewton {
+                stop: Default::default(),
+            }
+        }
+        Some(other) => return Err(format!("--solver2 {other}: lbfgs or gn")),
+    }
     let options = tapeshape_estimator::PredictOptions {
+        pipeline: tapeshape_estimator::Pipeline::Custom(Box::new(station)),
+        real_people: Some(Some(tapeshape_estimator::RealPeople::default())),
         l: get("--l")
             .map(|v| v.parse().map_err(|e| format!("--l: {e}")))
             .transpose()?,

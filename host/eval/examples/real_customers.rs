@@ -9,6 +9,8 @@
 //! Options: `--set quick|ansur` (the input), `--sex` (give each person's
 //! sex), `--per-sex N` (the first N of each sex by id; default all),
 //! `--leave-out COLUMN` (repeatable: an ANSUR column not entered),
+//! `--first none|smooth` (step 2's solver tried first, see
+//! `tapeshape_model::Step2Settings::first`),
 //! `--model FILE` (a model file instead of the embedded default: measure a
 //! candidate before `scripts/rebuild-default-model.sh` embeds it),
 //! `--out FILE` (the Markdown page; default: print it),
@@ -58,6 +60,18 @@ fn main() -> ExitCode {
                 opts.options.real_people = Some(None);
                 Ok(())
             }
+            "--first" => value("none or smooth").and_then(|v| {
+                let mut settings = opts.options.settings();
+                settings.step2.first = match v.as_str() {
+                    "none" => None,
+                    "smooth" => Some(tapeshape_model::Step2Solver::smooth_basis()),
+                    other => return Err(format!("--first {other}: none or smooth")),
+                };
+                // The station's real-people soft targets stay on.
+                opts.options.real_people = Some(opts.options.real_people());
+                opts.options.pipeline = tapeshape_estimator::Pipeline::Custom(Box::new(settings));
+                Ok(())
+            }),
             "--leave-out" => value("an ANSUR column").map(|v| opts.leave_out.push(v)),
             "--out" => value("a file").map(|v| out = Some(v)),
             "--model" => value("a model file").map(|v| model = Some(v)),

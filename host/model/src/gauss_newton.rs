@@ -78,9 +78,12 @@ pub const MAX_REJECTS: u32 = 12;
 struct Pattern {
     n: usize,
     lambda: f64,
+    /// Weight of the bending term inside the smoothness energy (0: none).
+    bending: f64,
     col_ptr: Vec<u32>,
     row_idx: Vec<u32>,
-    /// Values of `4 lambda (L (x) I_3)` in the pattern's order.
+    /// Values of `4 lambda (L (x) I_3)` (plus `2 lambda mu (L^T L (x) I_3)`
+    /// with the bending term) in the pattern's order.
     laplacian: Vec<f64>,
     /// Position of each value's diagonal entry (per unknown).
     diag: Vec<u32>,
@@ -105,8 +108,27 @@ fn term_vertices(t: &SegmentTerm) -> [(u32, f64); 4] {
     ]
 }
 
+/// The graph Laplacian `L = D - A` of the mesh edges, one row per vertex as
+/// `(column, value)` pairs (the diagonal first), for the bending term's
+/// Hessian `2 L^T L` (`E_b = |L D|^2` per coordinate).
+fn laplacian_rows(vertices: usize, edges: &[[u32; 2]]) -> Vec<Vec<(u32, f64)>> {
+    let mut rows: Vec<Vec<(u32, f64)>> = (0..vertices).map(|i| vec![(i as u32, 0.0)]).collect();
+    for &[a, b] in edges {
+        rows[a as usize][0].1 += 1.0;
+        rows[b as usize][0].1 += 1.0;
+        rows[a as usize].push((b, -1.0));
+        rows[b as usize].push((a, -1.0));
+    }
+    rows
+}
+
 impl Pattern {
-    fn new(n: usize, edges: &[[u32; 2]], terms: &[SegmentTerm], lambda: f64) -> Self {
+    fn new(n: usize, edges: &[[u32; 2]], terms: &[SegmentTerm], lambda: f64, bending: f64) -> Self {
+        let rows = if bending > 0.0 {
+            laplacian_rows(n / 3, edges)
+        } else {
+            Vec::new()
+        };
         // (col, row) with row >= col, as one u64 key each, sorted and
         // deduplicated: the compressed lower triangle.
         let mut keys: Vec<u64> = Vec::with_capacity(n + 3 * edges.len() + 78 * terms.len());
@@ -118,6 +140,19 @@ impl Pattern {
         for &[a, b] in edges {
             for c in 0..3 {
                 keys.push(key(3 * a as usize + c, 3 * b as usize + c));
+            }
+        }
+        // L^T L couples every two vertices of one vertex's closed
+        // neighbourhood (the two-ring).
+        for row in &rows {
+            for &(i, _) in row {
+                for &(j, _) in row {
+                    if i <= j {
+                        for c in 0..3 {
+                            keys.push(key(3 * i as usize + c, 3 * j as usize + c));
+                        }
+                    }
+                }
             }
         }
         for t in terms {
@@ -159,6 +194,21 @@ impl Pattern {
                 laplacian[pos(ia, ib) as usize] -= 4.0 * lambda;
             }
         }
+        // lambda mu E_b: Hessian 2 lambda mu L^T L, the sum over vertices k
+        // of the outer product of L's row k with itself.
+        let s = 2.0 * lambda * bending;
+        for row in &rows {
+            for &(i, li) in row {
+                for &(j, lj) in row {
+                    if i <= j {
+                        for c in 0..3 {
+                            let (ii, ij) = (3 * i as usize + c, 3 * j as usize + c);
+                            laplacian[pos(ii, ij) as usize] += s * li * lj;
+                        }
+                    }
+                }
+            }
+        }
         let mut term_pos = Vec::with_capacity(78 * terms.len());
         for t in terms {
             let unknowns = term_unknowns(t);
@@ -177,6 +227,7 @@ impl Pattern {
         Self {
             n,
             lambda,
+            bending,
             col_ptr,
             row_idx,
             laplacian,
@@ -298,14 +349,17 @@ impl SymbolicCache {
         edges: &[[u32; 2]],
         terms: &[SegmentTerm],
         lambda: f64,
+        bending: f64,
     ) -> Option<&mut Kept> {
         let key = (edges.len(), term_key(terms));
-        let same = self
-            .last
-            .as_ref()
-            .is_some_and(|k| k.key == key && k.pattern.n == n && k.pattern.lambda == lambda);
+        let same = self.last.as_ref().is_some_and(|k| {
+            k.key == key
+                && k.pattern.n == n
+                && k.pattern.lambda == lambda
+                && k.pattern.bending == bending
+        });
         if !same {
-            let pattern = Pattern::new(n, edges, terms, lambda);
+            let pattern = Pattern::new(n, edges, terms, lambda, bending);
             let symbolic_same = self.last.as_ref().is_some_and(|k| {
                 k.pattern.col_ptr == pattern.col_ptr && k.pattern.row_idx == pattern.row_idx
             });
@@ -481,9 +535,9 @@ pub fn minimise_vertices(
     if n == 0 {
         return Ok((x0, info(0, evaluations, f0, f, Termination::NoVariables)));
     }
-    let (terms, edges, lambda) = obj.parts();
+    let (terms, edges, lambda, bending) = obj.parts();
     let kept = cache
-        .prepare(n, edges, terms, lambda)
+        .prepare(n, edges, terms, lambda, bending)
         .ok_or(MinimiseError::NoFactorisation)?;
     let mut x = x0;
     let mut values = vec![0.0; kept.pattern.row_idx.len()];

@@ -203,10 +203,10 @@ impl<'a> VertexObjective<'a> {
         self
     }
 
-    /// The measurement terms, the mesh edges and `lambda` (what
-    /// [`crate::gauss_newton`] builds its system from).
-    pub(crate) fn parts(&self) -> (&[SegmentTerm], &'a [[u32; 2]], f64) {
-        (&self.terms, self.edges, self.lambda)
+    /// The measurement terms, the mesh edges, `lambda` and the bending
+    /// weight (what [`crate::gauss_newton`] builds its system from).
+    pub(crate) fn parts(&self) -> (&[SegmentTerm], &'a [[u32; 2]], f64, f64) {
+        (&self.terms, self.edges, self.lambda, self.bending)
     }
 }
 

@@ -21,6 +21,8 @@ fn a_report_of_the_flat_settings_record_reads_back_as_the_default() {
     // (the one solver there was), whatever the default is now.
     let mut then = PredictSettings::default();
     then.step2.solver = Step2Solver::paper();
+    // Nor did it try another solver first.
+    then.step2.first = None;
     assert_eq!(r.settings, then);
     assert!(r.settings.resolve().is_ok());
     assert_eq!(r.step1_runs.len(), 3);

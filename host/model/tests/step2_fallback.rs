@@ -111,3 +111,30 @@ fn a_step_2_that_ends_worse_than_step_1_keeps_its_best_round() {
     );
     assert!(r.measurements.iter().all(|m| m.error_mm.unwrap() < 1.0));
 }
+
+/// A solver tried first that cannot run on this mesh (the default's smooth
+/// basis asks for 200 modes; the tube has fewer vertices) leaves step 2 to
+/// the solver alone: the same body bit for bit as without it, and the
+/// report says why.
+#[test]
+fn a_first_solver_that_cannot_run_leaves_step_2_to_the_solver() {
+    let (model, targets) = setup();
+    let with_first = PredictSettings::default();
+    assert!(with_first.step2.first.is_some());
+    let mut alone = with_first.clone();
+    alone.step2.first = None;
+    let run = |s: &PredictSettings| {
+        model
+            .predict(&targets, &TubeMeasurer, &topology(), &s.resolve().unwrap())
+            .unwrap()
+    };
+    let (a, b) = (run(&with_first), run(&alone));
+    assert_eq!(a.vertices, b.vertices);
+    let first = a.report.step2_first.expect("tried first");
+    assert!(!first.kept, "{first:?}");
+    assert!(
+        first.error.as_deref().is_some_and(|e| e.contains("modes")),
+        "{first:?}"
+    );
+    assert_eq!(b.report.step2_first, None);
+}

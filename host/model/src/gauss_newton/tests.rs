@@ -144,31 +144,35 @@ fn lower_times(pattern: &Pattern, values: &[f64], v: &[f64]) -> Vec<f64> {
 /// once on the diagonal where it counts twice.)
 #[test]
 fn assembled_hessian_matches_finite_differences_at_a_fit() {
-    let w = 6;
-    let (x, edges) = grid(w, 3);
-    let terms = terms(&x, w, 1.0);
-    let reference: Vec<f64> = x.iter().map(|v| v - 0.01).collect();
-    let obj = VertexObjective::new(terms.clone(), &edges, &reference, 0.1);
-    let pattern = Pattern::new(x.len(), &edges, &terms, 0.1);
-    let mut values = vec![0.0; pattern.row_idx.len()];
-    assemble(&pattern, &terms, 0.1, &x, 0.0, &mut values);
-    let mut s = 9;
-    let v: Vec<f64> = (0..x.len()).map(|_| lcg(&mut s)).collect();
-    let hv = lower_times(&pattern, &values, &v);
-    let h = 1e-5;
-    let (mut gp, mut gm) = (vec![0.0; x.len()], vec![0.0; x.len()]);
-    let xp: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a + h * b).collect();
-    let xm: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a - h * b).collect();
-    obj.eval(&xp, &mut gp);
-    obj.eval(&xm, &mut gm);
-    let scale = hv.iter().fold(0.0f64, |m, a| m.max(a.abs()));
-    for i in 0..x.len() {
-        let fd = (gp[i] - gm[i]) / (2.0 * h);
-        assert!(
-            (fd - hv[i]).abs() < 1e-5 * scale,
-            "{i}: finite differences {fd} vs assembled {}",
-            hv[i]
-        );
+    // Without and with the bending term (its Hessian couples the two-ring).
+    for bending in [0.0, 2.5] {
+        let w = 6;
+        let (x, edges) = grid(w, 3);
+        let terms = terms(&x, w, 1.0);
+        let reference: Vec<f64> = x.iter().map(|v| v - 0.01).collect();
+        let obj =
+            VertexObjective::new(terms.clone(), &edges, &reference, 0.1).with_bending(bending);
+        let pattern = Pattern::new(x.len(), &edges, &terms, 0.1, bending);
+        let mut values = vec![0.0; pattern.row_idx.len()];
+        assemble(&pattern, &terms, 0.1, &x, 0.0, &mut values);
+        let mut s = 9;
+        let v: Vec<f64> = (0..x.len()).map(|_| lcg(&mut s)).collect();
+        let hv = lower_times(&pattern, &values, &v);
+        let h = 1e-5;
+        let (mut gp, mut gm) = (vec![0.0; x.len()], vec![0.0; x.len()]);
+        let xp: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a + h * b).collect();
+        let xm: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a - h * b).collect();
+        obj.eval(&xp, &mut gp);
+        obj.eval(&xm, &mut gm);
+        let scale = hv.iter().fold(0.0f64, |m, a| m.max(a.abs()));
+        for i in 0..x.len() {
+            let fd = (gp[i] - gm[i]) / (2.0 * h);
+            assert!(
+                (fd - hv[i]).abs() < 1e-5 * scale,
+                "bending {bending}, {i}: finite differences {fd} vs assembled {}",
+                hv[i]
+            );
+        }
     }
 }
 
@@ -178,10 +182,16 @@ fn assembled_hessian_matches_finite_differences_at_a_fit() {
 /// (the problem is convex near this start: targets 3 % longer).
 #[test]
 fn gauss_newton_and_lbfgs_reach_the_same_energy() {
+    for bending in [0.0, 1.0] {
+        same_energy_with_bending(bending);
+    }
+}
+
+fn same_energy_with_bending(bending: f64) {
     let w = 8;
     let (reference, edges) = grid(w, 5);
     let terms = terms(&reference, w, 1.03);
-    let obj = VertexObjective::new(terms, &edges, &reference, 0.1);
+    let obj = VertexObjective::new(terms, &edges, &reference, 0.1).with_bending(bending);
     let (x_gn, info_gn) = minimise_vertices(
         &obj,
         reference.clone(),
@@ -208,7 +218,7 @@ fn gauss_newton_and_lbfgs_reach_the_same_energy() {
     let rel = (info_gn.cost_end - info_lb.cost_end).abs() / info_lb.cost_end;
     assert!(
         rel < 1e-6,
-        "energies differ by {rel:e}: Gauss-Newton {info_gn:?}, L-BFGS {info_lb:?}"
+        "bending {bending}: energies differ by {rel:e}: Gauss-Newton {info_gn:?}, L-BFGS {info_lb:?}"
     );
     let worst = x_gn
         .iter()
@@ -217,7 +227,10 @@ fn gauss_newton_and_lbfgs_reach_the_same_energy() {
     // Both leave the centroid where it was (the energy is blind to a
     // translation and neither moves along it), so the shapes compare as
     // they are.
-    assert!(worst < 1e-3, "shapes differ by {worst} mm");
+    assert!(
+        worst < 1e-3,
+        "bending {bending}: shapes differ by {worst} mm"
+    );
 }
 
 /// A watcher that cancels ends the run at once with the start point.

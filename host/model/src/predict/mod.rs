@@ -65,7 +65,7 @@ pub use settings::{
 };
 pub use start::{StartMethod, StartShape};
 pub use step1::Step1Shape;
-pub use step2::Step2Shape;
+pub use step2::{Step2First, Step2Shape};
 pub use warning::{Step1Objective, Warning};
 
 use crate::{ModelError, Result, ShapeModel};

@@ -13,7 +13,7 @@ use super::rounds::RoundsSummary;
 use super::settings::{PredictConfig, PredictSettings};
 use super::start::{StartMethod, StartShape};
 use super::step1::Step1Shape;
-use super::step2::Step2Shape;
+use super::step2::{Step2First, Step2Shape};
 use super::warning::Warning;
 use super::Measurer;
 use crate::lbfgs::RunInfo;
@@ -140,6 +140,10 @@ pub struct PredictionReport {
     /// How step 2's rounds went (`None` in reports of older versions).
     #[serde(default)]
     pub step2_rounds: Option<RoundsSummary>,
+    /// How step 2's first solver went, where one was tried
+    /// ([`super::Step2Settings::first`]; `None` in reports from before).
+    #[serde(default)]
+    pub step2_first: Option<Step2First>,
     /// Things the operator or engineer should know (coded; the plain
     /// strings of older reports read as [`Warning::Text`]).
     #[serde(deserialize_with = "super::warning::list_from_either")]
@@ -394,6 +398,7 @@ impl ShapeModel {
             step2_runs: step2.runs.clone(),
             step1_rounds: Some(step1.rounds),
             step2_rounds: Some(step2.rounds),
+            step2_first: step2.first.clone(),
             warnings,
             settings: config.settings().clone(),
         })

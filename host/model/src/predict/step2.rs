@@ -54,6 +54,22 @@ pub struct Step2Shape {
     pub rounds: RoundsSummary,
     /// Things the operator or engineer should know.
     pub warnings: Vec<Warning>,
+    /// How the solver tried first went ([`Step2Config`]'s `first`; `None`
+    /// where none was).
+    pub first: Option<Step2First>,
+}
+
+/// How step 2's first solver went ([`super::Step2Settings::first`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Step2First {
+    /// Its result was kept (every reading within its threshold).
+    pub kept: bool,
+    /// Readings (not soft targets) its result left beyond their threshold.
+    pub misses: usize,
+    /// Why it could not run, where it could not (then step 2 ran the
+    /// solver alone).
+    #[serde(default)]
+    pub error: Option<String>,
 }
 
 /// Step 2 as the round driver sees it.
@@ -139,7 +155,8 @@ impl RoundStep for Step2Rounds<'_> {
                 &in_run(observer, at),
             ),
             (Step2Method::GaussNewton(stop), _) => minimise_vertices(
-                &VertexObjective::new(terms, self.edges, &self.reference_mm, lambda),
+                &VertexObjective::new(terms, self.edges, &self.reference_mm, lambda)
+                    .with_bending(self.config.bending),
                 self.x_mm.clone(),
                 stop,
                 &mut self.symbolic,
@@ -227,6 +244,85 @@ impl ShapeModel {
     /// is a warning.
     #[allow(clippy::too_many_arguments)]
     pub fn step2(
+        &self,
+        readings: &Readings,
+        step1: &Step1Shape,
+        config: &Step2Config,
+        rounds: &RoundsConfig,
+        measurer: &dyn Measurer,
+        topology: &Topology,
+        observer: &dyn PredictObserver,
+    ) -> Result<Step2Shape> {
+        let Some(first) = config.first else {
+            return self.step2_with(
+                readings, step1, config, rounds, measurer, topology, observer,
+            );
+        };
+        let tried = Step2Config {
+            solver: first,
+            first: None,
+            ..*config
+        };
+        // The first attempt passes cancelling through but reports no
+        // progress of its own (it is a few per cent of a fallback's work),
+        // so that the fraction never goes back when L-BFGS runs after it.
+        let quiet =
+            |_: &PredictProgress| observer.observe(&PredictProgress::at(PredictStage::Step2));
+        let shape =
+            match self.step2_with(readings, step1, &tried, rounds, measurer, topology, &quiet) {
+                Ok(shape) => shape,
+                Err(e @ ModelError::Cancelled(_)) => return Err(e),
+                // The first solver cannot run here (e.g. a smooth basis with
+                // more modes than the mesh has vertices): the solver alone.
+                Err(e) => {
+                    let mut shape = self.step2_with(
+                        readings, step1, config, rounds, measurer, topology, observer,
+                    )?;
+                    shape.first = Some(Step2First {
+                        kept: false,
+                        misses: 0,
+                        error: Some(e.to_string()),
+                    });
+                    return Ok(shape);
+                }
+            };
+        // Every reading within its threshold (the continuation's, else the
+        // whole allowable error), and no fallback to an earlier shape.
+        let within = rounds.continuation.unwrap_or(super::Continuation {
+            share: 1.0,
+            ..Default::default()
+        });
+        let limits = thresholds(readings, &|j| measurer.allowable_error(j), Some(within));
+        let misses = shape
+            .readings
+            .iter()
+            .zip(&shape.measured)
+            .zip(&limits)
+            .filter(|((g, m), t)| !g.soft && (m.value * MM_PER_M - g.target_mm).abs() > **t)
+            .count();
+        let fell_back = shape
+            .warnings
+            .iter()
+            .any(|w| matches!(w, Warning::Step2KeptEarlier { .. }));
+        let kept = misses == 0 && !fell_back;
+        let first = Some(Step2First {
+            kept,
+            misses,
+            error: None,
+        });
+        if kept {
+            return Ok(Step2Shape { first, ..shape });
+        }
+        let mut shape = self.step2_with(
+            readings, step1, config, rounds, measurer, topology, observer,
+        )?;
+        shape.first = first;
+        Ok(shape)
+    }
+
+    /// Step 2 with `config.solver` alone.
+    #[allow(clippy::too_many_arguments)]
+    fn step2_with(
         &self,
         readings: &Readings,
         step1: &Step1Shape,
@@ -332,6 +428,7 @@ impl ShapeModel {
             runs,
             rounds: summary,
             warnings,
+            first: None,
         })
     }
 }

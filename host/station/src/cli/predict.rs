@@ -321,6 +321,16 @@ fn print_report(r: &EstimateReport) -> std::io::Result<()> {
         t.step2.as_secs_f64() * 1e3,
         t.total.as_secs_f64() * 1e3
     )?;
+    if let Some(f) = &p.step2_first {
+        match (&f.error, f.kept) {
+            (_, true) => outln!("step 2: in the smooth basis (it met every reading)")?,
+            (Some(e), _) => outln!("step 2: L-BFGS (the smooth basis could not run: {e})")?,
+            (None, false) => outln!(
+                "step 2: L-BFGS (the smooth basis left {} reading(s) beyond the fit it aims for, by default half the ISO 20685-1 allowable error)",
+                f.misses
+            )?,
+        }
+    }
     for w in &r.warnings {
         outln!("warning: {w}")?;
     }

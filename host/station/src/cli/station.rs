@@ -217,7 +217,9 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
     let _ = std::thread::Builder::new()
         .name("model-warm-up".into())
         .spawn(|| {
-            let _ = tapeshape_estimator::Estimator::default_model();
+            if let Ok(e) = tapeshape_estimator::Estimator::default_model() {
+                e.warm_up(&tapeshape_estimator::PredictOptions::default());
+            }
         });
     let options = crate::tui::runner::RunOptions {
         sessions,

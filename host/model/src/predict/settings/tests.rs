@@ -150,14 +150,12 @@ fn bad_values_are_refused_when_resolved_naming_the_setting() {
             PredictSettings {
                 step2: Step2Settings {
                     bending: 10.0,
-                    solver: Step2Solver::GaussNewton {
-                        stop: Default::default(),
-                    },
+                    solver: Step2Solver::smooth_basis(),
                     ..PredictSettings::default().step2
                 },
                 ..Default::default()
             },
-            "only taken by step 2's L-BFGS",
+            "not taken by step 2's smooth-basis solver",
         ),
     ];
     for (s, want) in cases {

@@ -22,6 +22,8 @@ struct Step2Wire {
     solver: Option<Step2Solver>,
     #[serde(default)]
     stop: Option<StopRule>,
+    #[serde(default)]
+    first: Option<Step2Solver>,
 }
 
 impl<'de> Deserialize<'de> for Step2Settings {
@@ -37,6 +39,7 @@ impl<'de> Deserialize<'de> for Step2Settings {
             bending: w.bending,
             weighting: w.weighting,
             solver,
+            first: w.first,
         })
     }
 }
@@ -132,6 +135,7 @@ impl From<FlatWire> for PredictSettings {
                     },
                 },
                 solver: Step2Solver::Lbfgs { stop: f.step2_stop },
+                first: None,
             },
             continuation: f.continuation,
             warn_error_mm: f.warn_error_mm,
