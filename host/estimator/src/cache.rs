@@ -155,22 +155,30 @@ pub(crate) fn decode(bytes: &[u8], sha_hex: &str) -> Result<(ModelFile, RealStat
         return Err(invalid("array lengths do not match the body"));
     }
     let (rb, rm) = raw.split_at(width * nb);
-    let basis: Vec<f64> = if head.basis_f32 {
-        rb.chunks_exact(4)
-            .map(|c| f64::from(f32::from_le_bytes(c.try_into().expect("4 bytes"))))
-            .collect()
-    } else {
+    let basis_f64: Option<Vec<f64>> = (!head.basis_f32).then(|| {
         rb.chunks_exact(8)
             .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
             .collect()
-    };
+    });
     let mean: Vec<f64> = rm
         .chunks_exact(8)
         .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
         .collect();
     let mut file = head.file;
-    file.model.pca.basis = basis;
     file.model.pca.mean = mean;
+    match basis_f64 {
+        Some(basis) => file.model.pca.basis = basis,
+        // f32 values: kept as they are for the PCA's f32 copy too.
+        None => file
+            .model
+            .pca
+            .set_basis_f32(
+                rb.chunks_exact(4)
+                    .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+                    .collect(),
+            )
+            .map_err(|e| Rejected::Invalid(e.to_string()))?,
+    }
     file.validate()
         .map_err(|e| Rejected::Invalid(e.to_string()))?;
     Ok((file, head.real))

@@ -271,17 +271,24 @@ pub fn minimise_watched(
 /// serial dependency chain (floating-point addition is not reassociated), and
 /// the two-loop recursion over 41k variables is mostly dot products.
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    dot_widened(a, b)
+}
+
+/// [`dot`] with `a`'s entries widened to f64 first (`T` = f32 or f64): for
+/// f32 entries the same sums, in the same order, as [`dot`] of their f64
+/// values, so the result is bit for bit the same.
+pub(crate) fn dot_widened<T: Copy + Into<f64>>(a: &[T], b: &[f64]) -> f64 {
     let mut acc = [0.0; 4];
     let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
     let tail: f64 = ca
         .remainder()
         .iter()
         .zip(cb.remainder())
-        .map(|(x, y)| x * y)
+        .map(|(x, y)| (*x).into() * y)
         .sum();
     for (x, y) in ca.zip(cb) {
         for k in 0..4 {
-            acc[k] += x[k] * y[k];
+            acc[k] += x[k].into() * y[k];
         }
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail

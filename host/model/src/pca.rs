@@ -27,6 +27,16 @@ pub struct Pca {
     /// Standard deviation of the training weights along each component,
     /// `sigma_k = sqrt(eigenvalue_k / (N - 1))`, metres; descending.
     pub sigma: Vec<f64>,
+    /// `basis` as f32, where every entry is exactly an f32 (a model stored
+    /// with f32 values, as the embedded default is); built on the first
+    /// [`Pca::reconstruct`] or [`Pca::project`], `None` inside where some
+    /// entry is not. Why: both stream the whole D x K basis (33 MB for the
+    /// default model) and are memory-bound; the f32 copy halves that with
+    /// the same numbers, so the results are bit for bit those of the f64
+    /// basis. (Set `basis` before the first use: a later change is not
+    /// seen.)
+    #[serde(skip)]
+    narrow: std::sync::OnceLock<Option<Vec<f32>>>,
 }
 
 /// Result of [`Pca::fit`]: the PCA and the training bodies' normalised weights.
@@ -162,6 +172,7 @@ impl Pca {
                 basis,
                 n_components: k,
                 sigma,
+                narrow: Default::default(),
             },
             weights,
         })
@@ -172,20 +183,57 @@ impl Pca {
         self.mean.len()
     }
 
+    /// Sets the basis from f32 values (a model stored with f32 values):
+    /// `basis` becomes their f64 values and the f32 copy that
+    /// [`Pca::reconstruct`] and [`Pca::project`] stream is this vector, with
+    /// no check to run. Errors if the length is not D x K.
+    pub fn set_basis_f32(&mut self, basis: Vec<f32>) -> Result<()> {
+        if basis.len() != self.dim() * self.n_components {
+            return Err(ModelError::InvalidInput(format!(
+                "a basis of {} values for D x K = {} x {}",
+                basis.len(),
+                self.dim(),
+                self.n_components
+            )));
+        }
+        self.basis = basis.iter().map(|&v| f64::from(v)).collect();
+        self.narrow = std::sync::OnceLock::from(Some(basis));
+        Ok(())
+    }
+
+    /// The basis as f32 where that is exact (see the field's docs).
+    fn narrow(&self) -> Option<&[f32]> {
+        self.narrow
+            .get_or_init(|| {
+                let narrow: Vec<f32> = self.basis.iter().map(|&v| v as f32).collect();
+                narrow
+                    .iter()
+                    .zip(&self.basis)
+                    .all(|(&n, &v)| f64::from(n) == v)
+                    .then_some(narrow)
+            })
+            .as_deref()
+    }
+
     /// The shape `X = mu + A (sigma .* w)` for normalised weights `w` (length
     /// K), as a flat vector of length D in metres.
     pub fn reconstruct(&self, w: &[f64]) -> Vec<f64> {
         let k = self.n_components;
         assert_eq!(w.len(), k, "weights must have K entries");
         let scaled: Vec<f64> = w.iter().zip(&self.sigma).map(|(a, b)| a * b).collect();
-        self.mean
-            .iter()
-            .enumerate()
-            .map(|(r, m)| {
-                let row = &self.basis[r * k..(r + 1) * k];
-                m + crate::lbfgs::dot(row, &scaled)
-            })
-            .collect()
+        fn rows<T: Copy + Into<f64>>(mean: &[f64], basis: &[T], k: usize, s: &[f64]) -> Vec<f64> {
+            mean.iter()
+                .zip(basis.chunks_exact(k.max(1)))
+                .map(|(m, row)| m + crate::lbfgs::dot_widened(row, s))
+                .collect()
+        }
+        if k == 0 {
+            return self.mean.clone();
+        }
+        match self.narrow() {
+            Some(b) => rows(&self.mean, b, k, &scaled),
+            None => rows(&self.mean, &self.basis, k, &scaled),
+        }
     }
 
     /// Normalised weights of a shape `x` (flat, length D, metres):
@@ -193,12 +241,21 @@ impl Pca {
     pub fn project(&self, x: &[f64]) -> Vec<f64> {
         let k = self.n_components;
         assert_eq!(x.len(), self.dim(), "shape must have D entries");
+        fn accumulate<T: Copy + Into<f64>>(x: &[f64], mean: &[f64], basis: &[T], w: &mut [f64]) {
+            let k = w.len();
+            for (r, (xr, m)) in x.iter().zip(mean).enumerate() {
+                let dx = xr - m;
+                let row = &basis[r * k..(r + 1) * k];
+                for (wj, a) in w.iter_mut().zip(row) {
+                    *wj += (*a).into() * dx;
+                }
+            }
+        }
         let mut w = vec![0.0; k];
-        for (r, (xr, m)) in x.iter().zip(&self.mean).enumerate() {
-            let dx = xr - m;
-            let row = &self.basis[r * k..(r + 1) * k];
-            for (wj, a) in w.iter_mut().zip(row) {
-                *wj += a * dx;
+        if k > 0 {
+            match self.narrow() {
+                Some(b) => accumulate(x, &self.mean, b, &mut w),
+                None => accumulate(x, &self.mean, &self.basis, &mut w),
             }
         }
         for (wj, s) in w.iter_mut().zip(&self.sigma) {
@@ -223,6 +280,32 @@ mod tests {
     fn random(d: usize, n: usize, seed: u64) -> DMatrix<f64> {
         let mut s = seed;
         DMatrix::from_fn(d, n, |_, _| lcg(&mut s))
+    }
+
+    /// The f32 copy of an f32-valued basis gives the f64 basis's results
+    /// bit for bit, and is not used where the basis has other values.
+    #[test]
+    fn an_f32_valued_basis_streams_as_f32_with_the_same_results() {
+        let data = random(30, 8, 3);
+        let mut pca = Pca::fit(&data, 1e-12, None).unwrap().pca;
+        assert!(pca.narrow().is_none(), "a fitted basis is not f32-valued");
+        let mut wide = pca.clone();
+        wide.narrow = std::sync::OnceLock::from(None);
+        let rounded: Vec<f32> = pca.basis.iter().map(|&v| v as f32).collect();
+        pca.set_basis_f32(rounded.clone()).unwrap();
+        wide.basis = pca.basis.clone();
+        assert!(pca.narrow().is_some() && wide.narrow().is_none());
+        let w: Vec<f64> = (0..pca.n_components)
+            .map(|j| 0.3 * j as f64 - 1.0)
+            .collect();
+        assert_eq!(pca.reconstruct(&w), wide.reconstruct(&w));
+        let x = pca.reconstruct(&w);
+        assert_eq!(pca.project(&x), wide.project(&x));
+        // A fresh PCA with the same values finds the copy by itself.
+        let mut plain = wide.clone();
+        plain.narrow = Default::default();
+        assert_eq!(plain.narrow(), Some(&rounded[..]));
+        assert!(pca.set_basis_f32(vec![0.0; 3]).is_err());
     }
 
     #[test]
