@@ -368,10 +368,11 @@ impl PredictSettings {
     /// The paper's method exactly: L-BFGS on `E_m` weighted as the paper
     /// writes it in both steps, one clamp after step 1, exactly `s` rounds
     /// per step (l = 3, lambda = 0.1, s = 3, the paper's stopping rules).
-    /// The default differs in five places, measured in
+    /// The default differs in six places, measured in
     /// `docs/results/predict-iso.md` and `docs/results/predict-sreal.md`:
     /// the Gauss-Newton MAP step 1, per-measurement weighting in step 1 and
-    /// in step 2, the box inside step 1 and the [`Continuation`].
+    /// in step 2, the box inside step 1, the [`Continuation`] and step 2's
+    /// smooth basis tried first ([`Step2Settings::first`], for speed).
     pub fn paper() -> Self {
         let d = Self::default();
         Self {

@@ -19,6 +19,13 @@
 //! one last round that went wrong threw away all of step 2: 3 of 40 ANSUR
 //! II subjects then missed nearly every reading,
 //! `docs/results/predict-iso.md`.) A non-finite mesh is an error.
+//!
+//! A solver tried first ([`super::Step2Settings::first`]; the default tries
+//! the smooth basis) runs all of the above once; its body is kept only when
+//! every reading ends within its continuation threshold and it did not fall
+//! back to an earlier shape, otherwise the step runs again from the step-1
+//! shape with the solver, as if the first had not been tried
+//! ([`Step2First`] in the report says which).
 
 use tapeshape_measure::Measured;
 use tapeshape_mesh::{Topology, Vec3};
