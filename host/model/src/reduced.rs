@@ -196,7 +196,7 @@ impl<'a> ReducedObjective<'a> {
     }
 
     /// The same objective with `E_m` fitted per reading instead of per
-    /// segment (see [`ReadingsFit`]): `owner[e]` is term `e`'s reading
+    /// segment (see `ReadingsFit` in this module): `owner[e]` is term `e`'s reading
     /// (0-based, dense). The per-segment targets spread each reading over
     /// its segments in proportion to their lengths on the round's start;
     /// the readings' form asks only for each reading's length, so the
