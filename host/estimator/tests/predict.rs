@@ -474,13 +474,15 @@ fn step_2_keeps_the_smooth_basis_only_where_it_meets_every_reading() {
     for (n, v) in names.iter().zip(measure(e, &names, body)) {
         inputs.insert_metres(n, v).unwrap();
     }
+    let outcome = |est: &tapeshape_estimator::Estimate| {
+        est.report
+            .prediction
+            .step2_first
+            .clone()
+            .expect("tried first")
+    };
     let got = e.predict(&inputs, &first).unwrap();
-    let f = got
-        .report
-        .prediction
-        .step2_first
-        .clone()
-        .expect("tried first");
+    let f = outcome(&got);
     assert!(f.kept && f.misses == 0, "{f:?}");
     let smooth = e.predict(&inputs, &smooth_only).unwrap();
     assert_eq!(got.mesh.vertices, smooth.mesh.vertices);
@@ -508,12 +510,7 @@ fn step_2_keeps_the_smooth_basis_only_where_it_meets_every_reading() {
         seen.len() > 10 && seen.windows(2).all(|w| w[0] <= w[1]),
         "{seen:?}"
     );
-    let f = got
-        .report
-        .prediction
-        .step2_first
-        .clone()
-        .expect("tried first");
+    let f = outcome(&got);
     assert!(!f.kept && f.misses > 0, "{f:?}");
     let lbfgs = e.predict(&inputs, &lbfgs_only).unwrap();
     assert_eq!(got.mesh.vertices, lbfgs.mesh.vertices);
