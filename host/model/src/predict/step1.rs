@@ -69,6 +69,26 @@ struct Step1Rounds<'a> {
     x: Vec<Vec3>,
     /// Per reading, the Gauss-Newton MAP's noise (mm).
     map_sd: Vec<f64>,
+    /// The last shape measured by a Gauss-Newton round's backtracking
+    /// (its weights, vertices and readings), so that the next round, or the
+    /// end of the step, does not reconstruct and measure the same weights
+    /// again (each is a pass over the D x K basis and every support).
+    trial: Option<MeasuredShape>,
+}
+
+/// Weights with their shape and the readings measured on it.
+struct MeasuredShape {
+    weights: Vec<f64>,
+    vertices: Vec<Vec3>,
+    measured: Vec<Measured>,
+}
+
+impl MeasuredShape {
+    /// The shape and readings if they belong to exactly these weights.
+    fn of(this: Option<&Self>, w: &[f64]) -> Option<(Vec<Vec3>, Vec<Measured>)> {
+        this.filter(|t| t.weights == w)
+            .map(|t| (t.vertices.clone(), t.measured.clone()))
+    }
 }
 
 impl Step1Rounds<'_> {
@@ -126,13 +146,17 @@ impl Step1Rounds<'_> {
                 .zip(&w_gn)
                 .map(|(a, b)| a + alpha * (b - a))
                 .collect();
-            let m_trial = self.model.measure_checked(
-                self.measurer,
-                &self.model.shape_unchecked(&trial),
-                &self.which,
-            )?;
+            let x_trial = self.model.shape_unchecked(&trial);
+            let m_trial = self
+                .model
+                .measure_checked(self.measurer, &x_trial, &self.which)?;
             measures += 1;
             if real(&m_trial, &trial) < f_here {
+                self.trial = Some(MeasuredShape {
+                    weights: trial.clone(),
+                    vertices: x_trial,
+                    measured: m_trial,
+                });
                 self.w = trial;
                 break;
             }
@@ -176,6 +200,10 @@ impl RoundStep for Step1Rounds<'_> {
         if round == 0 {
             self.x.clone_from(&self.start.vertices);
             return Ok(self.start.measured.clone());
+        }
+        if let Some((x, measured)) = MeasuredShape::of(self.trial.as_ref(), &self.w) {
+            self.x = x;
+            return Ok(measured);
         }
         self.x = self.model.shape_unchecked(&self.w);
         self.model
@@ -284,6 +312,7 @@ impl ShapeModel {
             held,
             x: Vec::new(),
             map_sd,
+            trial: None,
         };
         let thresholds = thresholds(
             readings,
@@ -295,8 +324,14 @@ impl ShapeModel {
         let map_sd = std::mem::take(&mut step.map_sd);
         let mut w = step.w;
         let clamped = clamp_weights(&mut w, config.l);
-        let mut x1 = self.shape_unchecked(&w);
-        let mut meas1 = self.measure_checked(measurer, &x1, &readings.indices())?;
+        let (mut x1, mut meas1) = match MeasuredShape::of(step.trial.as_ref(), &w) {
+            Some(done) => done,
+            None => {
+                let x1 = self.shape_unchecked(&w);
+                let meas1 = self.measure_checked(measurer, &x1, &readings.indices())?;
+                (x1, meas1)
+            }
+        };
         // The Gauss-Newton step 1 minimises its own objective, not E_m with
         // per-segment targets, so it is judged by that objective.
         let (err_start, err1, what) = match &config.solver {

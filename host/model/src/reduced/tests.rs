@@ -323,3 +323,44 @@ fn offset_in_the_basis_gives_the_same_objective() {
         assert!((x - y).abs() <= 1e-9 * gmax, "{x} vs {y}");
     }
 }
+
+/// `vertices` is `x0 + B C` vertex by vertex, bit for bit the plain loop,
+/// on a mesh whose vertex count is not a multiple of the four it does at
+/// once.
+#[test]
+fn vertices_are_the_start_plus_the_basis_times_the_coefficients() {
+    let w = 7;
+    let (reference, edges) = grid(w, 5);
+    let n = reference.len() / 3;
+    assert_ne!(n % 4, 0);
+    let basis = SmoothBasis::compute(n, &edges, 12).unwrap();
+    let terms = terms(&reference, w, 1.03);
+    let x0: Vec<f64> = reference
+        .iter()
+        .zip(random(reference.len(), 9, 0.5))
+        .map(|(a, b)| a + b)
+        .collect();
+    let obj = ReducedObjective::new(terms, &basis, &edges, &reference, &x0, 0.1);
+    let c = random(obj.len(), 5, 2.0);
+    let mut x = vec![0.0; reference.len()];
+    obj.vertices(&x0, &c, &mut x);
+    let k = basis.k();
+    for v in 0..n {
+        for a in 0..3 {
+            let mut sum = 0.0;
+            for i in 0..k {
+                sum += basis.row(v)[i] * c[a * k + i];
+            }
+            let want = x0[3 * v + a] + sum;
+            assert_eq!(
+                x[3 * v + a].to_bits(),
+                want.to_bits(),
+                "vertex {v} coordinate {a}"
+            );
+        }
+    }
+    assert!(
+        x.iter().zip(&x0).any(|(a, b)| a != b),
+        "the coefficients move the mesh"
+    );
+}
