@@ -48,6 +48,14 @@ pub struct PredictOptions {
     /// (which does not take the term): step 2 is L-BFGS alone.
     #[serde(default)]
     pub bending: Option<f64>,
+    /// Whether step 2 tries the template's smooth basis first
+    /// ([`tapeshape_model::Step2Settings::first`]): `None`: the pipeline's
+    /// (the station's: yes; the paper's: no); `Some(false)`: step 2 is its
+    /// solver alone (L-BFGS, the paper's); `Some(true)`: the smooth basis
+    /// first, kept where it meets every reading. A bending term above 0
+    /// drops it whatever this says.
+    #[serde(default)]
+    pub smooth_first: Option<bool>,
     /// How real people guide what was not measured ([`crate::priors`]):
     /// `None`: the pipeline's (the station's: [`RealPeople::default`]; the
     /// paper's and custom pipelines: nothing, the model alone);
@@ -88,6 +96,9 @@ impl PredictOptions {
         }
         if let Some(rounds) = self.s {
             s.s = rounds;
+        }
+        if let Some(first) = self.smooth_first {
+            s.step2.first = first.then(tapeshape_model::Step2Solver::smooth_basis);
         }
         if let Some(bending) = self.bending {
             s.step2.bending = bending;
@@ -152,5 +163,35 @@ mod tests {
         };
         let err = bad.resolve().unwrap_err().to_string();
         assert!(err.contains("lambda must lie in [0, 1], got 2"), "{err}");
+    }
+
+    /// `smooth_first` overrides the pipeline's step-2 first solver both
+    /// ways, and a bending term drops the smooth basis whatever it says.
+    #[test]
+    fn smooth_first_chooses_step_2s_first_solver() {
+        let smooth = Some(tapeshape_model::Step2Solver::smooth_basis());
+        assert_eq!(PredictOptions::default().settings().step2.first, smooth);
+        assert_eq!(PredictOptions::paper().settings().step2.first, None);
+        let off = PredictOptions {
+            smooth_first: Some(false),
+            ..PredictOptions::default()
+        };
+        assert_eq!(off.settings().step2.first, None);
+        // Everything else stays the station's.
+        let mut want = PredictSettings::default();
+        want.step2.first = None;
+        assert_eq!(off.settings(), want);
+        let on = PredictOptions {
+            smooth_first: Some(true),
+            ..PredictOptions::paper()
+        };
+        assert_eq!(on.settings().step2.first, smooth);
+        let bent = PredictOptions {
+            smooth_first: Some(true),
+            bending: Some(10.0),
+            ..PredictOptions::default()
+        };
+        assert_eq!(bent.settings().step2.first, None);
+        assert!(bent.resolve().is_ok());
     }
 }

@@ -276,3 +276,67 @@ fn dataset_stats_all_prints_every_dimension() {
     assert!(stderr.contains("drop --all"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// `--step2 lbfgs` runs the paper's L-BFGS alone and says so (in the
+/// printout and the report's settings); the default tries the smooth basis
+/// first and reports what became of it.
+#[test]
+fn predict_step2_chooses_the_solver_and_reports_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str], report: &str| {
+        let path = tmp.path().join(report);
+        let out = common::tapeshape(
+            tmp.path(),
+            &[
+                "predict",
+                "--measure",
+                "stature=176.5cm",
+                "--measure",
+                "chest=98cm",
+                "--measure",
+                "waist=84cm",
+                "--measure",
+                "hip=100cm",
+            ],
+        )
+        .args(extra)
+        .arg("--report")
+        .arg(&path)
+        .output()
+        .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "{extra:?}: {stdout} {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let doc: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        (stdout, doc)
+    };
+    let (stdout, doc) = run(&["--step2", "lbfgs"], "lbfgs.json");
+    assert!(stdout.contains("step 2: L-BFGS alone"), "{stdout}");
+    assert!(
+        doc["prediction"]["step2_first"].is_null(),
+        "{}",
+        doc["prediction"]
+    );
+    assert!(doc["prediction"]["settings"]["step2"]["first"].is_null());
+    let (stdout, doc) = run(&[], "default.json");
+    assert!(!stdout.contains("L-BFGS alone"), "{stdout}");
+    assert!(stdout.contains("step 2: "), "{stdout}");
+    let first = &doc["prediction"]["step2_first"];
+    assert!(first["kept"].is_boolean(), "{first}");
+    assert!(!doc["prediction"]["settings"]["step2"]["first"].is_null());
+    // A solver that is not one is refused with the choices.
+    let out = common::tapeshape(tmp.path(), &["predict", "--measure", "stature=176cm"])
+        .args(["--step2", "newton"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("smooth-first") && stderr.contains("lbfgs"),
+        "{stderr}"
+    );
+}

@@ -104,9 +104,25 @@ pub struct Args {
     #[arg(long, value_name = "MU")]
     pub bending: Option<f64>,
 
+    /// How step 2 solves: `smooth-first` tries the template's 200 smoothest
+    /// modes first and keeps that body where it meets every reading, else
+    /// runs L-BFGS (fast; docs/prediction.md); `lbfgs` is the paper's L-BFGS
+    /// alone (slower, the reference) [default: smooth-first; lbfgs with --bending].
+    #[arg(long, value_name = "SOLVER", value_enum)]
+    pub step2: Option<Step2Choice>,
+
     /// List the model's measurements (name, sets, label) and exit.
     #[arg(long)]
     pub list: bool,
+}
+
+/// `--step2`: how step 2 solves.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step2Choice {
+    /// The smooth basis first, L-BFGS where it misses a reading.
+    SmoothFirst,
+    /// The paper's L-BFGS alone.
+    Lbfgs,
 }
 
 fn parse_sex(text: &str) -> Result<tapeshape_population::ansur::Sex, String> {
@@ -170,6 +186,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         lambda: args.lambda,
         s: args.s,
         bending: args.bending,
+        smooth_first: args.step2.map(|c| c == Step2Choice::SmoothFirst),
         real_people: args.no_real_people.then_some(None),
         ..PredictOptions::default()
     };
@@ -330,6 +347,8 @@ fn print_report(r: &EstimateReport) -> std::io::Result<()> {
                 f.misses
             )?,
         }
+    } else {
+        outln!("step 2: L-BFGS alone (--step2 lbfgs, --bending, or the paper's pipeline)")?;
     }
     for w in &r.warnings {
         outln!("warning: {w}")?;
