@@ -5,7 +5,7 @@
 //! refer to places on the body by name ("acromion_right", "thigh_left"), and
 //! the indices behind those names must be the same in every build and every
 //! body of the topology. They are therefore derived once, by documented rules
-//! ([`derive`]), from the rig joints and skinning weights shipped with the
+//! ([`derive`](mod@derive)), from the rig joints and skinning weights shipped with the
 //! MakeHuman pack, and committed as `data/landmarks.toml` and
 //! `data/parts.toml`; [`anatomy`] compiles them in, so nothing from the pack is
 //! needed at run time. The test `tests/anatomy_data.rs` re-runs the derivation

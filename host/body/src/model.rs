@@ -701,7 +701,7 @@ impl BodyModel {
     }
 
     /// Derivatives of the generated vertices by each parameter in `params`:
-    /// `result[j][v]` = d(vertex v)/d(params[j]) in metres per parameter unit
+    /// `result[j][v]` = `d(vertex v)/d(params[j])` in metres per parameter unit
     /// (per anny age unit for [`Param::Age`]; per raw race weight for the race
     /// parameters), station frame, shape `params.len() x 13,718`.
     ///

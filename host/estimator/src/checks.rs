@@ -549,7 +549,7 @@ impl Estimator {
     /// `name`: the Gaussian conditional of real people (ANSUR II train split)
     /// given the others that follow an ANSUR column when `name` has one, else
     /// of the training population (the model's joint Gaussian,
-    /// [`ShapeModel::conditional_measurements`] with reading noise) given all
+    /// [`tapeshape_model::ShapeModel::conditional_measurements`] with reading noise) given all
     /// others. With no others it is the marginal. The returned SD includes
     /// `name`'s own tolerance, so with others given `(value - mean) / sd` is
     /// the conditional z-score [`Estimator::check`] computes for that reading

@@ -61,7 +61,7 @@ pub enum PredictError {
     #[error(transparent)]
     Settings(#[from] SettingsError),
     /// The prediction was cancelled by its observer
-    /// ([`Estimator::predict_observed`]); the text names the stage.
+    /// ([`crate::Estimator::predict_observed`]); the text names the stage.
     #[error("estimate cancelled ({0})")]
     Cancelled(String),
     /// Training failed or was asked for something impossible.

@@ -18,8 +18,8 @@
 //! | [`priors`] | soft targets from real people for what was not measured ([`RealPeople`]) |
 //! | [`totals`] | loop totals (a knee or arm girth as one tape reading) shared out over their pieces |
 //! | [`report`] | [`EstimateReport`]: inputs, checks, the model's stage report, warnings |
-//! | [`train`] | [`train`](fn@train): a model from a dataset (`tapeshape-population`) and named measurement sets |
-//! | [`file`] | model files, plain or gzip ([`save_model`], [`load_model_bytes`]) and the embedded default model |
+//! | [`train`](mod@train) | [`train`](fn@train): a model from a dataset (`tapeshape-population`) and named measurement sets |
+//! | [`file`](mod@file) | model files, plain or gzip ([`save_model`], [`load_model_bytes`]) and the embedded default model |
 //!
 //! * [`train()`]: measures every body of a dataset with the union of the
 //!   named sets (deduplicated by name; the union's definitions are stored in

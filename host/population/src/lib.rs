@@ -14,7 +14,7 @@
 //! | [`fit`] | the one generator fitter (MakeHuman parameters to measurements), used here and by the evaluation's generator-fit baseline |
 //! | [`faces`] | face datasets (the head region) and the anatomy remapped onto it |
 //! | [`import`] | a folder of the user's registered OBJ/PLY meshes as a dataset |
-//! | [`format`] | the dataset file format (`.tsd`) and [`Dataset`] in memory |
+//! | [`format`](mod@format) | the dataset file format (`.tsd`) and [`Dataset`] in memory |
 //! | [`statistics`] | a population's statistics beside ANSUR II's (issue 3's four checked dimensions) |
 //! | [`dimensions`] | every `ansur` dimension beside ANSUR II, and each body against its own subject within ISO 20685-1 (issue 12) |
 //! | [`seeded`] | random draws whose streams do not change with the `rand` release |

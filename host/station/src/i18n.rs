@@ -11,8 +11,8 @@
 //! The language is chosen once at start ([`choose`]: `--lang`, else the
 //! locale, [`Lang::from_env`]) and read by every thread ([`lang`]); the
 //! library's and the tests' default is English. Text is looked up by
-//! message id with [`tr!`](crate::i18n::tr) (formatted now) or kept as an id
-//! with [`msg!`](crate::i18n::msg) (the key bindings' words, formatted where
+//! message id with `tr!` (formatted now) or kept as an id
+//! with `msg!` (the key bindings' words, formatted where
 //! they are drawn, [`text`]). A message missing in German falls back to
 //! English; one missing in English shows the id itself (never a panic
 //! or an empty line over words). The catalogue test
@@ -162,7 +162,7 @@ fn build(lang: Lang) -> Bundle {
     bundle
 }
 
-/// What went wrong formatting a message in one language ([`format`]).
+/// What went wrong formatting a message in one language ([`format`](fn@format)).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum TextError {
     /// The language's catalogue has no message (with a value) of this id.

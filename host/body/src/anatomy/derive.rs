@@ -72,7 +72,7 @@ const LOWER_LEG: u8 = 11;
 const FOOT: u8 = 13;
 /// Not a body-surface vertex (eyes, tongue, helpers).
 const NONE: u8 = u8::MAX;
-/// Label smoothing passes (see [`derive`]).
+/// Label smoothing passes (see [`derive`](fn@derive)).
 pub const SMOOTH_PASSES: usize = 3;
 
 /// The rule that groups skinning bones into body parts (documented in the data

@@ -32,7 +32,7 @@ pub enum Action {
     Export {
         /// The customer's id.
         id: String,
-        /// File to write (owner-only) [default: DATA_DIR/exports/customer-<hash>.json];
+        /// File to write (owner-only) [default: DATA_DIR/exports/customer-HASH.json];
         /// `-` writes to stdout.
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,

@@ -26,7 +26,7 @@
 //! reading until a host sends an `Ack` (`firmware/src/device.rs`), and
 //! resends them all to the next host that says hello, so probing a tape
 //! never loses a reading (tested in `tests/probe.rs`). The framing is the
-//! link's ([`super::open_port`], [`super::write_msg`], the protocol
+//! link's (`open_port`, `write_msg` in [`super`], the protocol
 //! crate's [`FrameDecoder`]).
 //!
 //! Candidates are probed concurrently, so a survey takes one timeout
