@@ -21,7 +21,7 @@
 //! Every experiment takes the prediction settings as flags (see
 //! `settings_from_args`): `--paper` for the paper's exact pipeline, and
 //! `--gn`, `--w1`, `--w2`, `--w2-scale`, `--prior`, `--k1`, `--box`,
-//! `--cont`, `--budget`, `--iters1`, `--iters2`, `--solver2 lbfgs|gn|smooth|smooth:MODES[:POLISH]` (step 2's
+//! `--cont`, `--cont-iters1 N|solver`, `--budget`, `--iters1`, `--iters2`, `--solver2 lbfgs|gn|smooth|smooth:MODES[:POLISH]` (step 2's
 //! solver), `--first none|smooth` (a step-2 solver tried first, kept when it
 //! meets every reading), `--l`, `--lambda`, `--s`.
 
@@ -665,7 +665,9 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
 /// per-measurement reading weight, default 1e4), `--k1 K` (step 1 moves
 /// the first K components only), `--box on|off`, `--cont N|off`
 /// (continuation rounds), `--budget EVALS` (the continuation's evaluation
-/// budget per step), `--iters1`/`--iters2` (iteration caps).
+/// budget per step), `--cont-iters1 N|solver` (L-BFGS iterations of a
+/// step-1 continuation round; `solver`: `--iters1`'s), `--iters1`/`--iters2`
+/// (iteration caps).
 fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::error::Error>> {
     let mut s = if args.iter().any(|a| a == "--paper") {
         PredictSettings::paper()
@@ -750,6 +752,17 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
                 ..Default::default()
             }),
         };
+    }
+    if let Some(v) = arg(args, "--cont-iters1") {
+        match &mut s.continuation {
+            Some(c) => {
+                c.step1_max_iters = match v.as_str() {
+                    "solver" => None,
+                    n => Some(n.parse()?),
+                }
+            }
+            None => return Err("--cont-iters1 needs the continuation (not with --cont off)".into()),
+        }
     }
     if let Some(v) = arg(args, "--budget") {
         match &mut s.continuation {

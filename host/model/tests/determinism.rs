@@ -35,6 +35,7 @@ fn settings(max_evaluations: u64) -> PredictSettings {
             share: 0.001,
             default_allowable_mm: 1.0,
             max_evaluations,
+            step1_max_iters: None,
         }),
         ..PredictSettings::default()
     };

@@ -23,6 +23,10 @@ fn a_report_of_the_flat_settings_record_reads_back_as_the_default() {
     then.step2.solver = Step2Solver::paper();
     // Nor did it try another solver first.
     then.step2.first = None;
+    // And its step-1 continuation rounds ran step 1's own iteration cap.
+    if let Some(c) = then.continuation.as_mut() {
+        c.step1_max_iters = None;
+    }
     assert_eq!(r.settings, then);
     assert!(r.settings.resolve().is_ok());
     assert_eq!(r.step1_runs.len(), 3);
@@ -84,6 +88,9 @@ fn every_old_setting_maps_to_its_stage() {
             share: 0.25,
             default_allowable_mm: 2.0,
             max_evaluations: tapeshape_model::predict::DEFAULT_MAX_EVALUATIONS,
+            // Older reports ran step 1's continuation rounds with its
+            // stop.max_iters.
+            step1_max_iters: None,
         })
     );
     // The oldest reports lack the later fields: the paper's pipeline.

@@ -452,6 +452,7 @@ fn continuation_adds_rounds_while_readings_miss() {
                 share: 0.01,
                 default_allowable_mm: 1.0,
                 max_evaluations: 1_000_000,
+                step1_max_iters: None,
             }),
             ..short.clone()
         },

@@ -61,7 +61,7 @@ pub use settings::{
     Continuation, EnergyWeighting, PredictConfig, PredictSettings, ReadingsConfig, ReportConfig,
     RoundsConfig, SettingsError, SmoothFit, StartConfig, Step1Clamp, Step1Config, Step1Settings,
     Step1Solver, Step2Config, Step2Settings, Step2Solver, Step2Weighting, DEFAULT_MAX_EVALUATIONS,
-    DEFAULT_SMOOTH_MODES, DEFAULT_SMOOTH_POLISH,
+    DEFAULT_SMOOTH_MODES, DEFAULT_SMOOTH_POLISH, DEFAULT_STEP1_CONTINUATION_ITERS,
 };
 pub use start::{StartMethod, StartShape};
 pub use step1::Step1Shape;

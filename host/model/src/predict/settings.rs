@@ -276,6 +276,15 @@ pub struct Continuation {
     /// load; reports older than this held a wall-clock budget instead).
     #[serde(default = "default_max_evaluations")]
     pub max_evaluations: u64,
+    /// L-BFGS iterations of a step-1 continuation round (`None`: step 1's
+    /// `stop.max_iters`, 100, what reports older than this field ran).
+    /// A continuation round there mostly nudges a reading whose support
+    /// jumps under the step (the neck's cut curve); on generated bodies 10
+    /// iterations met every reading that 100 did, step 2 then kept its
+    /// smooth basis as often, and a paper34 estimate took about 20 ms less
+    /// (`docs/results/predict-iso.md`, `docs/results/predict-bench.md`).
+    #[serde(default)]
+    pub step1_max_iters: Option<u64>,
 }
 
 /// The evaluation budget of a step's continuation: about what the old 1 s
@@ -295,9 +304,13 @@ impl Default for Continuation {
             share: 0.5,
             default_allowable_mm: 4.0,
             max_evaluations: DEFAULT_MAX_EVALUATIONS,
+            step1_max_iters: Some(DEFAULT_STEP1_CONTINUATION_ITERS),
         }
     }
 }
+
+/// [`Continuation::step1_max_iters`] of the default.
+pub const DEFAULT_STEP1_CONTINUATION_ITERS: u64 = 10;
 
 /// How the segment terms of one measurement are weighted in `E_m`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -707,6 +720,12 @@ impl PredictConfig {
                     "the continuation's default_allowable_mm",
                     c.default_allowable_mm,
                 )?;
+                if c.step1_max_iters == Some(0) {
+                    return Err(SettingsError::NotPositive {
+                        what: "the continuation's step1_max_iters",
+                        value: 0.0,
+                    });
+                }
                 Some(c)
             }
             _ => None,

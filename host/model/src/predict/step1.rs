@@ -69,6 +69,8 @@ struct Step1Rounds<'a> {
     x: Vec<Vec3>,
     /// Per reading, the Gauss-Newton MAP's noise (mm).
     map_sd: Vec<f64>,
+    /// L-BFGS iterations of a continuation round (`None`: the solver's).
+    continuation_iters: Option<u64>,
     /// The last shape measured by a Gauss-Newton round's backtracking
     /// (its weights, vertices and readings), so that the next round, or the
     /// end of the step, does not reconstruct and measure the same weights
@@ -248,7 +250,12 @@ impl RoundStep for Step1Rounds<'_> {
                 }
             }
         }
-        let lbfgs = self.lbfgs().clone();
+        let mut lbfgs = self.lbfgs().clone();
+        if round >= self.s {
+            if let Some(n) = self.continuation_iters {
+                lbfgs.solver.stop.max_iters = n;
+            }
+        }
         let mut obj = self.model.localise(&terms);
         if let Some(tau) = lbfgs.prior.tau_mm(self.readings.any_tolerance()) {
             obj = obj.with_prior(tau * tau);
@@ -312,6 +319,7 @@ impl ShapeModel {
             held,
             x: Vec::new(),
             map_sd,
+            continuation_iters: rounds.continuation.and_then(|c| c.step1_max_iters),
             trial: None,
         };
         let thresholds = thresholds(

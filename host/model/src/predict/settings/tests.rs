@@ -138,6 +138,16 @@ fn bad_values_are_refused_when_resolved_naming_the_setting() {
         ),
         (
             PredictSettings {
+                continuation: Some(Continuation {
+                    step1_max_iters: Some(0),
+                    ..Continuation::default()
+                }),
+                ..Default::default()
+            },
+            "step1_max_iters",
+        ),
+        (
+            PredictSettings {
                 step2: Step2Settings {
                     bending: -1.0,
                     ..PredictSettings::default().step2
