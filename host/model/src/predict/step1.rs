@@ -11,7 +11,8 @@
 //!   by Gauss-Newton on the readings' values ([`crate::map`],
 //!   [`super::Step1Solver::GaussNewtonMap`]), each step backtracked on the
 //!   re-measured objective; a round it cannot improve, and every
-//!   continuation round, run L-BFGS on `E_m` with the same prior;
+//!   continuation round (at most [`super::Continuation::step1_max_iters`]
+//!   iterations there), run L-BFGS on `E_m` with the same prior;
 //!
 //! then the clamp ([`super::clamp`]). A step 1 that ends with a higher
 //! objective than its start (the MAP objective for Gauss-Newton, `E_m` with
