@@ -71,30 +71,32 @@ fn sha_bytes(sha_hex: &str) -> Option<[u8; 32]> {
 /// model with sha256 `sha_hex`.
 pub(crate) fn encode(file: &ModelFile, real: &RealStats, sha_hex: &str) -> Option<Vec<u8>> {
     let sha = sha_bytes(sha_hex)?;
+    let pca = &file.model.pca;
+    let narrow = pca.basis_f32();
+    let basis_len = pca.basis_len();
     let mut light = file.clone();
-    let basis = std::mem::take(&mut light.model.pca.basis);
+    light.model.pca.set_basis(Vec::new());
     let mean = std::mem::take(&mut light.model.pca.mean);
-    let basis_f32 = basis.iter().all(|&v| f64::from(v as f32) == v);
     let head = postcard::to_stdvec(&Head {
         file: light,
         real: real.clone(),
-        basis_f32,
-        basis_len: basis.len() as u64,
+        basis_f32: narrow.is_some(),
+        basis_len: basis_len as u64,
         mean_len: mean.len() as u64,
     })
     .ok()?;
-    let width = if basis_f32 { 4 } else { 8 };
-    let mut body = Vec::with_capacity(8 + head.len() + width * basis.len() + 8 * mean.len());
+    let width = if narrow.is_some() { 4 } else { 8 };
+    let mut body = Vec::with_capacity(8 + head.len() + width * basis_len + 8 * mean.len());
     body.extend_from_slice(&(head.len() as u64).to_le_bytes());
     body.extend_from_slice(&head);
-    if basis_f32 {
-        basis
+    match narrow {
+        Some(n) => n
             .iter()
-            .for_each(|&v| body.extend_from_slice(&(v as f32).to_le_bytes()));
-    } else {
-        basis
+            .for_each(|v| body.extend_from_slice(&v.to_le_bytes())),
+        None => pca
+            .basis()
             .iter()
-            .for_each(|v| body.extend_from_slice(&v.to_le_bytes()));
+            .for_each(|v| body.extend_from_slice(&v.to_le_bytes())),
     }
     mean.iter()
         .for_each(|v| body.extend_from_slice(&v.to_le_bytes()));
@@ -167,7 +169,7 @@ pub(crate) fn decode(bytes: &[u8], sha_hex: &str) -> Result<(ModelFile, RealStat
     let mut file = head.file;
     file.model.pca.mean = mean;
     match basis_f64 {
-        Some(basis) => file.model.pca.basis = basis,
+        Some(basis) => file.model.pca.set_basis(basis),
         // f32 values: kept as they are for the PCA's f32 copy too.
         None => file
             .model

@@ -186,7 +186,10 @@ pub fn train(
         }
     }
     if settings.round_to_f32 {
-        for x in model.pca.basis.iter_mut().chain(model.pca.mean.iter_mut()) {
+        for x in model.pca.basis_mut().iter_mut() {
+            *x = *x as f32 as f64;
+        }
+        for x in model.pca.mean.iter_mut() {
             *x = *x as f32 as f64;
         }
     }

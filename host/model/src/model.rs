@@ -266,7 +266,7 @@ impl ShapeModel {
                 "mean has {d} entries, not a positive multiple of 3"
             ));
         }
-        if self.pca.basis.len() != d * k || self.pca.sigma.len() != k {
+        if self.pca.basis_len() != d * k || self.pca.sigma.len() != k {
             return bad("basis or sigma length does not match the components".into());
         }
         if self.pca.sigma.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
@@ -289,11 +289,10 @@ impl ShapeModel {
             .pca
             .mean
             .iter()
-            .chain(&self.pca.basis)
             .chain(&fm.b)
             .chain(&j.mean)
             .chain(&j.cov);
-        if all.into_iter().any(|x| !x.is_finite()) {
+        if all.into_iter().any(|x| !x.is_finite()) || !self.pca.basis_is_finite() {
             return Err(ModelError::NonFinite(
                 "model contains NaN or infinite numbers".into(),
             ));

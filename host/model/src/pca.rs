@@ -9,34 +9,68 @@
 //! `Xc` computed at the cost of one N x N eigen-problem and two 3V x N x N
 //! products.
 
+use std::sync::OnceLock;
+
 use nalgebra::{DMatrix, SymmetricEigen};
 
 use crate::{ModelError, Result};
 
 /// PCA of a data matrix (the learned part of [`crate::ShapeModel`]'s shape space).
-#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+///
+/// The basis `A` (D x K, **row-major**, `basis[r * K + k]`, orthonormal
+/// columns) is held as f64 values, or as f32 values where the model was
+/// stored so ([`Pca::set_basis_f32`], as the embedded default is). Why both:
+/// [`Pca::reconstruct`] and [`Pca::project`] stream the whole basis (33 MB
+/// at f64 for the default model) and are memory-bound, and a model loaded
+/// from f32 values need never widen them (12 % of a whole `tapeshape
+/// predict`, measured): [`Pca::basis`] widens on first use only, and
+/// [`Pca::basis_row`] reads either. Results are bit for bit the same, since
+/// every f32 value is exactly the f64 it stands for.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(from = "PcaRepr<Vec<f64>, Vec<f64>>")]
 pub struct Pca {
     /// Mean `mu`, length D (= 3V, metres, vertex-major `[x0, y0, z0, x1, ...]`).
     pub mean: Vec<f64>,
-    /// Basis `A`, D x K, **row-major** (`basis[r * K + k]`), orthonormal columns.
-    /// Row-major keeps the K entries of one coordinate together, which is what
-    /// the sparse step-1 refinement reads.
-    pub basis: Vec<f64>,
     /// Number of components K.
     pub n_components: usize,
     /// Standard deviation of the training weights along each component,
     /// `sigma_k = sqrt(eigenvalue_k / (N - 1))`, metres; descending.
     pub sigma: Vec<f64>,
-    /// `basis` as f32, where every entry is exactly an f32 (a model stored
-    /// with f32 values, as the embedded default is); built on the first
-    /// [`Pca::reconstruct`] or [`Pca::project`], `None` inside where some
-    /// entry is not. Why: both stream the whole D x K basis (33 MB for the
-    /// default model) and are memory-bound; the f32 copy halves that with
-    /// the same numbers, so the results are bit for bit those of the f64
-    /// basis. (Set `basis` before the first use: a later change is not
-    /// seen.)
-    #[serde(skip)]
-    narrow: std::sync::OnceLock<Option<Vec<f32>>>,
+    /// The basis as f64; set from the start, or widened from `narrow` on the
+    /// first [`Pca::basis`]. At least one of the two is always set.
+    wide: OnceLock<Vec<f64>>,
+    /// The basis as f32 where every entry is exactly an f32: set by
+    /// [`Pca::set_basis_f32`], or found on first use from `wide` (`None`
+    /// inside where some entry is not).
+    narrow: OnceLock<Option<Vec<f32>>>,
+}
+
+/// The serialised form of [`Pca`] (the model file's layout: the basis as f64).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct PcaRepr<V, B> {
+    mean: V,
+    basis: B,
+    n_components: usize,
+    sigma: V,
+}
+
+impl From<PcaRepr<Vec<f64>, Vec<f64>>> for Pca {
+    fn from(r: PcaRepr<Vec<f64>, Vec<f64>>) -> Self {
+        Pca::new(r.mean, r.basis, r.n_components, r.sigma)
+    }
+}
+
+impl serde::Serialize for Pca {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        // Borrowed, so saving a model copies nothing; the same bytes as the Vec form.
+        PcaRepr {
+            mean: &self.mean[..],
+            basis: self.basis(),
+            n_components: self.n_components,
+            sigma: &self.sigma[..],
+        }
+        .serialize(s)
+    }
 }
 
 /// Result of [`Pca::fit`]: the PCA and the training bodies' normalised weights.
@@ -167,13 +201,7 @@ impl Pca {
             }
         }
         Ok(PcaFit {
-            pca: Pca {
-                mean: mean.as_slice().to_vec(),
-                basis,
-                n_components: k,
-                sigma,
-                narrow: Default::default(),
-            },
+            pca: Pca::new(mean.as_slice().to_vec(), basis, k, sigma),
             weights,
         })
     }
@@ -183,10 +211,79 @@ impl Pca {
         self.mean.len()
     }
 
-    /// Sets the basis from f32 values (a model stored with f32 values):
-    /// `basis` becomes their f64 values and the f32 copy that
-    /// [`Pca::reconstruct`] and [`Pca::project`] stream is this vector, with
-    /// no check to run. Errors if the length is not D x K.
+    /// A PCA from its parts: mean (length D, metres), basis (D x K,
+    /// row-major, f64), K and the components' standard deviations (length
+    /// K, metres). Lengths are checked by [`crate::ShapeModel::validate`].
+    pub fn new(mean: Vec<f64>, basis: Vec<f64>, n_components: usize, sigma: Vec<f64>) -> Self {
+        Self {
+            mean,
+            n_components,
+            sigma,
+            wide: OnceLock::from(basis),
+            narrow: OnceLock::new(),
+        }
+    }
+
+    /// The basis `A`, D x K, row-major (`basis[r * K + k]`), f64. A basis
+    /// set from f32 values is widened on the first call (and kept): code on
+    /// a hot path reads [`Pca::basis_row`] or [`Pca::basis_f32`] instead.
+    pub fn basis(&self) -> &[f64] {
+        self.wide.get_or_init(|| {
+            let narrow = self.narrow.get().and_then(Option::as_deref);
+            // Invariant: `wide` unset means `narrow` was set with values.
+            let narrow = narrow.expect("a PCA basis is held as f64 or as f32");
+            narrow.iter().map(|&v| f64::from(v)).collect()
+        })
+    }
+
+    /// Number of basis values (D x K where consistent), without widening.
+    pub fn basis_len(&self) -> usize {
+        match self.narrow.get() {
+            Some(Some(n)) => n.len(),
+            _ => self.basis().len(),
+        }
+    }
+
+    /// Row `r` of the basis (coordinate `r` of D; its K values, f64), from
+    /// whichever form is held, without widening the whole basis. Panics if
+    /// `r >= D`.
+    pub fn basis_row(&self, r: usize) -> impl Iterator<Item = f64> + '_ {
+        let k = self.n_components;
+        let (narrow, wide): (&[f32], &[f64]) = match self.basis_f32() {
+            Some(n) => (&n[r * k..(r + 1) * k], &[]),
+            None => (&[], &self.basis()[r * k..(r + 1) * k]),
+        };
+        narrow
+            .iter()
+            .map(|&v| f64::from(v))
+            .chain(wide.iter().copied())
+    }
+
+    /// Whether every basis value is finite, without widening.
+    pub fn basis_is_finite(&self) -> bool {
+        match self.basis_f32() {
+            Some(n) => n.iter().all(|v| v.is_finite()),
+            None => self.basis().iter().all(|v| v.is_finite()),
+        }
+    }
+
+    /// The basis to change in place (f64, D x K row-major); any f32 form
+    /// is dropped and found again on next use.
+    pub fn basis_mut(&mut self) -> &mut Vec<f64> {
+        self.basis();
+        self.narrow = OnceLock::new();
+        self.wide.get_mut().expect("widened just above")
+    }
+
+    /// Sets the basis from f64 values (D x K, row-major).
+    pub fn set_basis(&mut self, basis: Vec<f64>) {
+        self.wide = OnceLock::from(basis);
+        self.narrow = OnceLock::new();
+    }
+
+    /// Sets the basis from f32 values (a model stored with f32 values): the
+    /// basis holds exactly their values, kept as f32 (see the type's docs),
+    /// with no check to run. Errors if the length is not D x K.
     pub fn set_basis_f32(&mut self, basis: Vec<f32>) -> Result<()> {
         if basis.len() != self.dim() * self.n_components {
             return Err(ModelError::InvalidInput(format!(
@@ -196,19 +293,22 @@ impl Pca {
                 self.n_components
             )));
         }
-        self.basis = basis.iter().map(|&v| f64::from(v)).collect();
-        self.narrow = std::sync::OnceLock::from(Some(basis));
+        self.narrow = OnceLock::from(Some(basis));
+        self.wide = OnceLock::new();
         Ok(())
     }
 
-    /// The basis as f32 where that is exact (see the field's docs).
-    fn narrow(&self) -> Option<&[f32]> {
+    /// The basis as f32 values (D x K, row-major) where every entry is
+    /// exactly an f32; `None` otherwise. Found once from the f64 basis when
+    /// that is what was set.
+    pub fn basis_f32(&self) -> Option<&[f32]> {
         self.narrow
             .get_or_init(|| {
-                let narrow: Vec<f32> = self.basis.iter().map(|&v| v as f32).collect();
+                let wide = self.basis();
+                let narrow: Vec<f32> = wide.iter().map(|&v| v as f32).collect();
                 narrow
                     .iter()
-                    .zip(&self.basis)
+                    .zip(wide)
                     .all(|(&n, &v)| f64::from(n) == v)
                     .then_some(narrow)
             })
@@ -230,9 +330,9 @@ impl Pca {
         if k == 0 {
             return self.mean.clone();
         }
-        match self.narrow() {
+        match self.basis_f32() {
             Some(b) => rows(&self.mean, b, k, &scaled),
-            None => rows(&self.mean, &self.basis, k, &scaled),
+            None => rows(&self.mean, self.basis(), k, &scaled),
         }
     }
 
@@ -253,9 +353,9 @@ impl Pca {
         }
         let mut w = vec![0.0; k];
         if k > 0 {
-            match self.narrow() {
+            match self.basis_f32() {
                 Some(b) => accumulate(x, &self.mean, b, &mut w),
-                None => accumulate(x, &self.mean, &self.basis, &mut w),
+                None => accumulate(x, &self.mean, self.basis(), &mut w),
             }
         }
         for (wj, s) in w.iter_mut().zip(&self.sigma) {
@@ -282,30 +382,45 @@ mod tests {
         DMatrix::from_fn(d, n, |_, _| lcg(&mut s))
     }
 
-    /// The f32 copy of an f32-valued basis gives the f64 basis's results
-    /// bit for bit, and is not used where the basis has other values.
+    /// An f32-valued basis streams as f32 with the f64 basis's results bit
+    /// for bit, is widened only when asked, and an f64 basis with other
+    /// values has no f32 form.
     #[test]
     fn an_f32_valued_basis_streams_as_f32_with_the_same_results() {
         let data = random(30, 8, 3);
         let mut pca = Pca::fit(&data, 1e-12, None).unwrap().pca;
-        assert!(pca.narrow().is_none(), "a fitted basis is not f32-valued");
-        let mut wide = pca.clone();
-        wide.narrow = std::sync::OnceLock::from(None);
-        let rounded: Vec<f32> = pca.basis.iter().map(|&v| v as f32).collect();
+        assert!(
+            pca.basis_f32().is_none(),
+            "a fitted basis is not f32-valued"
+        );
+        let rounded: Vec<f32> = pca.basis().iter().map(|&v| v as f32).collect();
+        let widened: Vec<f64> = rounded.iter().map(|&v| f64::from(v)).collect();
         pca.set_basis_f32(rounded.clone()).unwrap();
-        wide.basis = pca.basis.clone();
-        assert!(pca.narrow().is_some() && wide.narrow().is_none());
-        let w: Vec<f64> = (0..pca.n_components)
-            .map(|j| 0.3 * j as f64 - 1.0)
-            .collect();
+        assert!(pca.wide.get().is_none(), "set from f32: not widened yet");
+        assert_eq!(pca.basis_len(), widened.len());
+        let r = 7;
+        let k = pca.n_components;
+        let row: Vec<f64> = pca.basis_row(r).collect();
+        assert_eq!(row, widened[r * k..(r + 1) * k]);
+        assert!(pca.wide.get().is_none(), "a row does not widen the basis");
+        // The same values given as f64: the f32 form is found, not set.
+        let wide = Pca::new(pca.mean.clone(), widened.clone(), k, pca.sigma.clone());
+        assert_eq!(wide.basis_f32(), Some(&rounded[..]));
+        let w: Vec<f64> = (0..k).map(|j| 0.3 * j as f64 - 1.0).collect();
         assert_eq!(pca.reconstruct(&w), wide.reconstruct(&w));
         let x = pca.reconstruct(&w);
         assert_eq!(pca.project(&x), wide.project(&x));
-        // A fresh PCA with the same values finds the copy by itself.
-        let mut plain = wide.clone();
-        plain.narrow = Default::default();
-        assert_eq!(plain.narrow(), Some(&rounded[..]));
+        assert_eq!(pca.basis(), &widened[..]);
+        // Changing the basis drops the f32 form.
+        let mut changed = pca.clone();
+        changed.basis_mut()[0] += 1e-9;
+        assert!(changed.basis_f32().is_none());
         assert!(pca.set_basis_f32(vec![0.0; 3]).is_err());
+        // Saved as f64, whichever form is held: the same bytes.
+        assert_eq!(
+            postcard::to_stdvec(&pca).unwrap(),
+            postcard::to_stdvec(&wide).unwrap()
+        );
     }
 
     #[test]
@@ -352,7 +467,7 @@ mod tests {
             let sigma = s / ((n - 1) as f64).sqrt();
             assert!((fit.pca.sigma[j] - sigma).abs() < 1e-12 * sigma.max(1.0));
             // Same direction up to sign.
-            let dot: f64 = (0..d).map(|r| fit.pca.basis[r * k + j] * u[(r, i)]).sum();
+            let dot: f64 = (0..d).map(|r| fit.pca.basis()[r * k + j] * u[(r, i)]).sum();
             assert!(
                 (dot.abs() - 1.0).abs() < 1e-9,
                 "component {j}: |dot| = {dot}"
@@ -362,7 +477,7 @@ mod tests {
         for a in 0..k {
             for b in 0..k {
                 let dot: f64 = (0..d)
-                    .map(|r| fit.pca.basis[r * k + a] * fit.pca.basis[r * k + b])
+                    .map(|r| fit.pca.basis()[r * k + a] * fit.pca.basis()[r * k + b])
                     .sum();
                 let want = if a == b { 1.0 } else { 0.0 };
                 assert!((dot - want).abs() < 1e-9);

@@ -55,7 +55,7 @@ fn save_load_round_trip_is_exact() {
     assert_eq!(g.template, f.template);
     assert_eq!(g.measurement_set, f.measurement_set);
     assert_eq!(g.model.pca.mean, f.model.pca.mean);
-    assert_eq!(g.model.pca.basis, f.model.pca.basis);
+    assert_eq!(g.model.pca.basis(), f.model.pca.basis());
     assert_eq!(g.model.pca.sigma, f.model.pca.sigma);
     assert_eq!(g.model.feature_map.b, f.model.feature_map.b);
     assert_eq!(g.model.joint.cov, f.model.joint.cov);
@@ -127,7 +127,7 @@ fn inconsistent_contents_are_refused() {
     expect_file_error(&bytes, "vertices");
 
     let mut g = model_file();
-    g.model.pca.basis.pop();
+    g.model.pca.basis_mut().pop();
     expect_file_error(&g.to_bytes().unwrap(), "inconsistent model");
 
     let mut h = model_file();

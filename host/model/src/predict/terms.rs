@@ -168,8 +168,8 @@ impl ShapeModel {
             for c in 0..3 {
                 let r = 3 * g + c;
                 rows.extend(
-                    self.pca.basis[r * k..(r + 1) * k]
-                        .iter()
+                    self.pca
+                        .basis_row(r)
                         .zip(&self.pca.sigma)
                         .map(|(a, s)| a * s * MM_PER_M),
                 );
