@@ -20,7 +20,7 @@
 
 use std::path::{Path, PathBuf};
 
-use tapeshape_model::smooth_basis::{edges_key, SmoothBasis};
+use tapeshape_model::smooth_basis::{edges_key, Preparing, SmoothBasis};
 
 const MAGIC: [u8; 8] = *b"TSBASIS1";
 const FORMAT: u32 = 1;
@@ -71,31 +71,73 @@ pub(crate) fn decode(bytes: &[u8], n: usize, k: usize, key: u64) -> Option<Smoot
     SmoothBasis::from_parts(n, k, rows, values, key).ok()
 }
 
-/// Makes the basis of `k` modes of the mesh (`n` vertices, `edges`)
-/// available to this process's predictions: already there, read from
-/// `dir`, or computed and written there. A failure to compute is left to
-/// the prediction (which reports it); a cache that cannot be read or
-/// written only costs time.
-pub(crate) fn prepare(dir: &Path, n: usize, edges: &[[u32; 2]], k: usize) {
+/// Claims the preparation of the basis of `k` modes of the mesh (`n`
+/// vertices, `edges`): [`PendingBasis::finish`] makes it available to this
+/// process's predictions, read from `dir`, or computed and written there (a
+/// failure to compute is left to the prediction, which reports it; a cache
+/// that cannot be read or written only costs time). The claim means a
+/// prediction's step 2 waits for it rather than computing it; `None` if the
+/// process has it already or another thread is preparing it. The claim is
+/// made here, on the calling thread; [`PendingBasis::finish`] can then run
+/// on another.
+pub(crate) fn begin<'a>(
+    dir: Option<&'a Path>,
+    n: usize,
+    edges: &'a [[u32; 2]],
+    k: usize,
+) -> Option<PendingBasis<'a>> {
     let key = edges_key(n, edges);
-    if SmoothBasis::find_shared(n, key, k).is_some() {
-        return;
-    }
-    let path = basis_path(dir, key, k);
-    if let Some(basis) = std::fs::read(&path)
-        .ok()
-        .and_then(|b| decode(&b, n, k, key))
-    {
-        SmoothBasis::share(basis);
-        return;
-    }
-    let Ok(basis) = SmoothBasis::shared(n, edges, k) else {
-        return;
-    };
-    let written = std::fs::create_dir_all(dir)
-        .and_then(|()| tapeshape_common::fs::write_atomic(&path, &encode(&basis)));
-    if let Err(e) = written {
-        tracing::warn!(path = %path.display(), error = %e, "could not write the smooth-basis cache (each process computes it again)");
+    let claim = SmoothBasis::preparing(n, key, k)?;
+    Some(PendingBasis {
+        dir,
+        n,
+        edges,
+        k,
+        key,
+        _claim: claim,
+    })
+}
+
+/// A basis this thread has claimed to prepare ([`begin`]).
+pub(crate) struct PendingBasis<'a> {
+    dir: Option<&'a Path>,
+    n: usize,
+    edges: &'a [[u32; 2]],
+    k: usize,
+    key: u64,
+    /// Released when this is finished or dropped.
+    _claim: Preparing,
+}
+
+impl PendingBasis<'_> {
+    /// Reads the basis from the cache folder, or computes it (and writes
+    /// it there), and shares it with the process.
+    pub(crate) fn finish(self) {
+        let (n, k, key) = (self.n, self.k, self.key);
+        let Some(dir) = self.dir else {
+            if let Ok(basis) = SmoothBasis::compute(n, self.edges, k) {
+                SmoothBasis::share(basis);
+            }
+            return;
+        };
+        let path = basis_path(dir, key, k);
+        if let Some(basis) = crate::cache::map_file(&path)
+            .ok()
+            .and_then(|b| decode(&b, n, k, key))
+        {
+            SmoothBasis::share(basis);
+            return;
+        }
+        // Not `SmoothBasis::shared`: it would wait for this very claim.
+        let Ok(basis) = SmoothBasis::compute(n, self.edges, k) else {
+            return;
+        };
+        let basis = SmoothBasis::share(basis);
+        let written = std::fs::create_dir_all(dir)
+            .and_then(|()| tapeshape_common::fs::write_atomic(&path, &encode(&basis)));
+        if let Err(e) = written {
+            tracing::warn!(path = %path.display(), error = %e, "could not write the smooth-basis cache (each process computes it again)");
+        }
     }
 }
 
@@ -138,7 +180,7 @@ mod tests {
     fn prepare_writes_the_file_and_a_later_process_can_read_it() {
         let dir = std::env::temp_dir().join(format!("tapeshape-basis-{}", std::process::id()));
         let edges = grid_edges(7);
-        prepare(&dir, 49, &edges, 9);
+        begin(Some(&dir), 49, &edges, 9).unwrap().finish();
         let key = edges_key(49, &edges);
         let bytes = std::fs::read(basis_path(&dir, key, 9)).unwrap();
         let read = decode(&bytes, 49, 9, key).unwrap();

@@ -189,8 +189,45 @@ pub(crate) fn decode(bytes: &[u8], sha_hex: &str) -> Result<(ModelFile, RealStat
 /// Reads the cache for `sha_hex` in `dir`: the decoded model and its
 /// statistics, or why there is none to use.
 pub(crate) fn read(dir: &Path, sha_hex: &str) -> Result<(ModelFile, RealStats), Rejected> {
-    let bytes = std::fs::read(cache_path(dir, sha_hex)).map_err(|_| Rejected::NotACache)?;
+    let bytes = map_file(&cache_path(dir, sha_hex)).map_err(|_| Rejected::NotACache)?;
     decode(&bytes, sha_hex)
+}
+
+/// A cache file's bytes, mapped, or read where mapping fails.
+pub(crate) enum FileBytes {
+    /// Mapped read-only.
+    Mapped(memmap2::Mmap),
+    /// Read into memory.
+    Read(Vec<u8>),
+}
+
+impl std::ops::Deref for FileBytes {
+    type Target = [u8];
+    fn deref(&self) -> &[u8] {
+        match self {
+            FileBytes::Mapped(m) => m,
+            FileBytes::Read(v) => v,
+        }
+    }
+}
+
+/// The bytes of the cache file at `path`, mapped rather than read. Why:
+/// the caches are tens of MB that each start decodes once; a read copies
+/// them into fresh pages the kernel must first clear (the page faults and
+/// copy were a tenth of a whole `tapeshape predict`), where a mapping
+/// shares the page cache's.
+pub(crate) fn map_file(path: &Path) -> std::io::Result<FileBytes> {
+    let file = std::fs::File::open(path)?;
+    // SAFETY: the mapping is read-only, lives only while this process
+    // decodes the file into its own arrays, and this program never changes
+    // a cache file in place: each is written whole to a temporary file and
+    // renamed over the old (`write_atomic`), so the mapped inode keeps its
+    // bytes. (Only another program truncating the file in that moment could
+    // fault the read, as it could fault any mapped file.)
+    match unsafe { memmap2::Mmap::map(&file) } {
+        Ok(m) => Ok(FileBytes::Mapped(m)),
+        Err(_) => std::fs::read(path).map(FileBytes::Read),
+    }
 }
 
 /// Writes the cache for `sha_hex` in `dir` (creating `dir`), atomically,

@@ -160,18 +160,26 @@ impl Estimator {
     /// too (then it costs nothing). A basis that cannot be computed is left
     /// to the estimate, which reports it.
     pub fn warm_up(&self, options: &PredictOptions) {
-        let step2 = options.settings().step2;
-        for solver in std::iter::once(step2.solver).chain(step2.first) {
-            if let tapeshape_model::Step2Solver::SmoothBasis { modes, .. } = solver {
-                let (n, edges) = (self.topology.n_vertices(), self.topology.edges());
-                match CACHE_DIR.get() {
-                    Some(dir) => crate::basis_cache::prepare(dir, n, edges, modes),
-                    None => {
-                        let _ = tapeshape_model::smooth_basis::SmoothBasis::shared(n, edges, modes);
-                    }
-                }
-            }
+        for pending in self.begin_warm_up(options) {
+            pending.finish();
         }
+    }
+
+    /// Claims the preparation of the smooth bases `options`' step 2 needs
+    /// and the process lacks (see [`Estimator::warm_up`]), to be finished
+    /// on another thread while step 1 runs; step 2 waits for them.
+    fn begin_warm_up(&self, options: &PredictOptions) -> Vec<crate::basis_cache::PendingBasis<'_>> {
+        let step2 = options.settings().step2;
+        let (n, edges) = (self.topology.n_vertices(), self.topology.edges());
+        std::iter::once(step2.solver)
+            .chain(step2.first)
+            .filter_map(|solver| match solver {
+                tapeshape_model::Step2Solver::SmoothBasis { modes, .. } => {
+                    crate::basis_cache::begin(CACHE_DIR.get().map(|d| d.as_path()), n, edges, modes)
+                }
+                _ => None,
+            })
+            .collect()
     }
 
     /// The model file.
@@ -263,16 +271,25 @@ impl Estimator {
             soft_targets.push(entry);
         }
         // The smooth-basis step 2's basis: from the cache directory where
-        // there is one (else computed once per process).
-        self.warm_up(options);
-        let p = self
-            .file
-            .model
-            .predict_observed(&targets, &self.compiled, &self.topology, &config, observer)
-            .map_err(|e| match e {
-                ModelError::Cancelled(stage) => PredictError::Cancelled(stage),
-                e => PredictError::Model(e),
-            })?;
+        // there is one (else computed once per process), read on another
+        // thread while step 1 runs (step 2 waits for it).
+        let pending = self.begin_warm_up(options);
+        let p = std::thread::scope(|s| {
+            if !pending.is_empty() {
+                s.spawn(move || pending.into_iter().for_each(|p| p.finish()));
+            }
+            self.file.model.predict_observed(
+                &targets,
+                &self.compiled,
+                &self.topology,
+                &config,
+                observer,
+            )
+        })
+        .map_err(|e| match e {
+            ModelError::Cancelled(stage) => PredictError::Cancelled(stage),
+            e => PredictError::Model(e),
+        })?;
         let pl = &p.report.plausibility;
         if pl.measurements_label == tapeshape_model::PlausibilityLabel::Unusual {
             warnings.push(Warning::UnusualSet {

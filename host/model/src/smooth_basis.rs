@@ -28,7 +28,7 @@
 //! Deterministic: a fixed pseudo-random start block, one thread, the same
 //! numbers on every run on a machine.
 
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::matmul;
@@ -94,13 +94,55 @@ const KRYLOV_EXTRA: usize = 48;
 /// Columns per Krylov block (one sparse solve with this many right-hand sides).
 const BLOCK: usize = 8;
 
-/// The bases computed in this process (few: one per topology and `k`).
-static SHARED: Mutex<Vec<Arc<SmoothBasis>>> = Mutex::new(Vec::new());
+/// The bases of this process (few: one per topology and `k`), and those
+/// another thread is preparing ([`SmoothBasis::preparing`]).
+#[derive(Default)]
+struct Shared {
+    ready: Vec<Arc<SmoothBasis>>,
+    /// `(n_vertices, key, k)` of bases being prepared.
+    pending: Vec<(usize, u64, usize)>,
+}
+
+static SHARED: Mutex<Shared> = Mutex::new(Shared {
+    ready: Vec::new(),
+    pending: Vec::new(),
+});
+/// Signalled when a pending basis is shared or given up.
+static SHARED_CHANGED: Condvar = Condvar::new();
+
+fn shared_state() -> MutexGuard<'static, Shared> {
+    SHARED.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl Shared {
+    fn find(&self, n_vertices: usize, key: u64, k: usize) -> Option<Arc<SmoothBasis>> {
+        self.ready
+            .iter()
+            .find(|b| b.key == key && b.k == k && b.n_vertices == n_vertices)
+            .cloned()
+    }
+}
+
+/// A promise that this thread (or one it hands this to) prepares a basis
+/// and shares it ([`SmoothBasis::share`]); see [`SmoothBasis::preparing`].
+/// Dropped, it is given up: waiting threads go on and compute it.
+#[derive(Debug)]
+pub struct Preparing {
+    id: (usize, u64, usize),
+}
+
+impl Drop for Preparing {
+    fn drop(&mut self) {
+        shared_state().pending.retain(|&p| p != self.id);
+        SHARED_CHANGED.notify_all();
+    }
+}
 
 impl SmoothBasis {
     /// The basis of `k` modes for the mesh with `n_vertices` vertices and
     /// undirected `edges` (each once), computed on first use and then kept
-    /// for the process (a prediction reuses it). Errors as
+    /// for the process (a prediction reuses it); while another thread
+    /// prepares it ([`SmoothBasis::preparing`]), waits for that. Errors as
     /// [`SmoothBasis::compute`].
     pub fn shared(
         n_vertices: usize,
@@ -108,48 +150,66 @@ impl SmoothBasis {
         k: usize,
     ) -> Result<Arc<Self>, BasisError> {
         let key = edges_key(n_vertices, edges);
-        let find = |all: &[Arc<Self>]| {
-            all.iter()
-                .find(|b| b.key == key && b.k == k && b.n_vertices == n_vertices)
-                .cloned()
-        };
-        if let Some(b) = find(&SHARED.lock().unwrap_or_else(|e| e.into_inner())) {
-            return Ok(b);
+        let id = (n_vertices, key, k);
+        {
+            let mut state = shared_state();
+            loop {
+                if let Some(b) = state.find(n_vertices, key, k) {
+                    return Ok(b);
+                }
+                if !state.pending.contains(&id) {
+                    break;
+                }
+                state = SHARED_CHANGED
+                    .wait(state)
+                    .unwrap_or_else(|e| e.into_inner());
+            }
         }
         // Computed outside the lock: another thread may compute the same
         // basis meanwhile (the same numbers); the first one stored wins.
         let basis = Arc::new(Self::compute(n_vertices, edges, k)?);
-        let mut all = SHARED.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(b) = find(&all) {
+        let mut state = shared_state();
+        if let Some(b) = state.find(n_vertices, key, k) {
             return Ok(b);
         }
-        all.push(basis.clone());
+        state.ready.push(basis.clone());
         Ok(basis)
     }
 
     /// The basis of `k` modes for the mesh with fingerprint `key`
     /// ([`edges_key`]) and `n_vertices` vertices, if this process has it.
     pub fn find_shared(n_vertices: usize, key: u64, k: usize) -> Option<Arc<Self>> {
-        SHARED
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .iter()
-            .find(|b| b.key == key && b.k == k && b.n_vertices == n_vertices)
-            .cloned()
+        shared_state().find(n_vertices, key, k)
+    }
+
+    /// Claims the preparation of the basis of `k` modes for the mesh with
+    /// fingerprint `key` and `n_vertices` vertices (reading it from a file,
+    /// say, on another thread): until the returned [`Preparing`] is dropped,
+    /// [`SmoothBasis::shared`] waits for it instead of computing it. `None`
+    /// if the process has the basis already or another claim is open.
+    pub fn preparing(n_vertices: usize, key: u64, k: usize) -> Option<Preparing> {
+        let id = (n_vertices, key, k);
+        let mut state = shared_state();
+        if state.find(n_vertices, key, k).is_some() || state.pending.contains(&id) {
+            return None;
+        }
+        state.pending.push(id);
+        Some(Preparing { id })
     }
 
     /// Keeps `basis` for the process (e.g. one read from a cache file), so
     /// that [`SmoothBasis::shared`] returns it.
     pub fn share(basis: Self) -> Arc<Self> {
-        let mut all = SHARED.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(b) = all
-            .iter()
-            .find(|b| b.key == basis.key && b.k == basis.k && b.n_vertices == basis.n_vertices)
-        {
-            return b.clone();
-        }
-        let b = Arc::new(basis);
-        all.push(b.clone());
+        let b = {
+            let mut state = shared_state();
+            if let Some(b) = state.find(basis.n_vertices, basis.key, basis.k) {
+                return b;
+            }
+            let b = Arc::new(basis);
+            state.ready.push(b.clone());
+            b
+        };
+        SHARED_CHANGED.notify_all();
         b
     }
 

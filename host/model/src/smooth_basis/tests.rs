@@ -106,3 +106,44 @@ fn bad_inputs_are_errors() {
         Err(BasisError::InvalidMesh(_))
     ));
 }
+
+/// While a thread has claimed a basis, `shared` waits for it (rather than
+/// computing the same numbers again) and returns the one shared.
+#[test]
+fn shared_waits_for_a_claimed_basis_and_a_dropped_claim_releases_it() {
+    let edges = grid_edges(11);
+    let (n, k) = (121, 6);
+    let key = edges_key(n, &edges);
+    let claim = SmoothBasis::preparing(n, key, k).expect("nobody has it yet");
+    assert!(
+        SmoothBasis::preparing(n, key, k).is_none(),
+        "one claim at a time"
+    );
+    let waiter = {
+        let edges = edges.clone();
+        std::thread::spawn(move || SmoothBasis::shared(n, &edges, k).unwrap())
+    };
+    // Computing this basis takes well under a millisecond: still running
+    // after 200 ms means waiting.
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    assert!(
+        !waiter.is_finished(),
+        "shared() computed instead of waiting"
+    );
+    let mine = SmoothBasis::share(SmoothBasis::compute(n, &edges, k).unwrap());
+    drop(claim);
+    assert!(Arc::ptr_eq(&waiter.join().unwrap(), &mine));
+
+    // A claim given up without a basis: the waiter computes it.
+    let edges = grid_edges(10);
+    let (n, k) = (100, 4);
+    let claim = SmoothBasis::preparing(n, edges_key(n, &edges), k).unwrap();
+    let waiter = {
+        let edges = edges.clone();
+        std::thread::spawn(move || SmoothBasis::shared(n, &edges, k).unwrap())
+    };
+    std::thread::sleep(std::time::Duration::from_millis(50));
+    drop(claim);
+    let got = waiter.join().unwrap();
+    assert_eq!(*got, SmoothBasis::compute(n, &edges, k).unwrap());
+}
