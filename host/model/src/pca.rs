@@ -261,9 +261,16 @@ impl Pca {
 
     /// Whether every basis value is finite, without widening.
     pub fn basis_is_finite(&self) -> bool {
+        // In chunks without a branch per value, which vectorises (a plain
+        // short-circuiting `all` over the 4M values took 4 % of a whole
+        // `tapeshape predict`).
+        fn all_finite<T: Copy>(v: &[T], finite: impl Fn(T) -> bool) -> bool {
+            v.chunks(4096)
+                .all(|c| c.iter().fold(true, |ok, &x| ok & finite(x)))
+        }
         match self.basis_f32() {
-            Some(n) => n.iter().all(|v| v.is_finite()),
-            None => self.basis().iter().all(|v| v.is_finite()),
+            Some(n) => all_finite(n, f32::is_finite),
+            None => all_finite(self.basis(), f64::is_finite),
         }
     }
 
@@ -416,6 +423,16 @@ mod tests {
         changed.basis_mut()[0] += 1e-9;
         assert!(changed.basis_f32().is_none());
         assert!(pca.set_basis_f32(vec![0.0; 3]).is_err());
+        assert!(pca.basis_is_finite() && wide.basis_is_finite());
+        for bad in [f64::NAN, f64::INFINITY] {
+            let mut p = pca.clone();
+            p.basis_mut()[5] = bad;
+            assert!(!p.basis_is_finite());
+            let mut n: Vec<f32> = rounded.clone();
+            n[rounded.len() - 1] = bad as f32;
+            p.set_basis_f32(n).unwrap();
+            assert!(!p.basis_is_finite());
+        }
         // Saved as f64, whichever form is held: the same bytes.
         assert_eq!(
             postcard::to_stdvec(&pca).unwrap(),

@@ -10,6 +10,7 @@
 //!
 //! | order | layer | module | what |
 //! |---|---|---|---|
+//! | 0 | process | `alloc` | the binary's memory allocator (Linux): huge pages for large blocks, glibc tuned to keep freed memory; imports nothing |
 //! | 0 | words | [`i18n`] | the operator text's message catalogue (Fluent, `locales/<lang>/station.ftl`, embedded) and the language chosen at start |
 //! | 1 | words | [`text`] | lengths, times, device faults, digests as the station writes them |
 //! | 1 | words | [`warning_text`] | the estimate's coded warnings and refusals worded from the catalogue |
@@ -21,6 +22,8 @@
 //! | 7 | front end | [`tui`] | the kiosk interface: `app` (router), one module per screen, the runner, the demo's simulated operator (`demo` feature) |
 //! | 8 | commands | [`cli`] | the subcommands of the `tapeshape` binary (`src/main.rs` dispatches): the line-mode station, the demo (`demo` feature), sessions, measure, predict, a customer's data, the hub (`hub` feature), ...; `moved` says where `eval` (now `tapeshape-eval`) went |
 
+#[cfg(target_os = "linux")]
+pub mod alloc;
 pub mod check;
 pub mod cli;
 pub mod estimate;

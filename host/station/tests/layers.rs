@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 /// before it (and itself). `check` and `estimate` share a rank: neither
 /// imports the other.
 const RANKS: &[(&str, u32)] = &[
+    ("alloc", 0),
     ("i18n", 0),
     ("text", 1),
     ("warning_text", 1),
