@@ -29,7 +29,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 const HUGE: usize = 2 << 20;
 
 /// The system allocator with the huge-page hint on blocks of at least
-/// [`HUGE`] bytes (see the module docs).
+/// 2 MiB (see the module docs).
 pub struct HugePageHint;
 
 impl HugePageHint {
