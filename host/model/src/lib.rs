@@ -36,6 +36,7 @@
 pub mod energy;
 pub mod file;
 pub mod gauss_newton;
+mod kernels;
 pub mod lbfgs;
 pub mod map;
 pub mod pca;

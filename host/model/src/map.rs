@@ -97,6 +97,7 @@ impl MapProblem {
     /// The readings' values `m(w)` (M, mm) and, if `jacobian`, `dm/dw`
     /// (M x K, mm per unit weight).
     pub fn values(&self, w: &[f64], jacobian: bool) -> (Vec<f64>, Option<DMatrix<f64>>) {
+        crate::kernels::clear_upper_registers();
         let k = self.k;
         let m = self.targets.len();
         let mut vals = vec![0.0; m];

@@ -329,10 +329,9 @@ impl Pca {
         assert_eq!(w.len(), k, "weights must have K entries");
         let scaled: Vec<f64> = w.iter().zip(&self.sigma).map(|(a, b)| a * b).collect();
         fn rows<T: Copy + Into<f64>>(mean: &[f64], basis: &[T], k: usize, s: &[f64]) -> Vec<f64> {
-            mean.iter()
-                .zip(basis.chunks_exact(k.max(1)))
-                .map(|(m, row)| m + crate::lbfgs::dot_widened(row, s))
-                .collect()
+            let mut out = mean.to_vec();
+            crate::kernels::rows_dot_widened(basis, k, s, |r, v| out[r] += v);
+            out
         }
         if k == 0 {
             return self.mean.clone();
@@ -348,6 +347,7 @@ impl Pca {
     pub fn project(&self, x: &[f64]) -> Vec<f64> {
         let k = self.n_components;
         assert_eq!(x.len(), self.dim(), "shape must have D entries");
+        crate::kernels::clear_upper_registers();
         fn accumulate<T: Copy + Into<f64>>(x: &[f64], mean: &[f64], basis: &[T], w: &mut [f64]) {
             let k = w.len();
             for (r, (xr, m)) in x.iter().zip(mean).enumerate() {

@@ -513,16 +513,12 @@ impl<'a> ReducedObjective<'a> {
         let (c1, c2) = rest.split_at(k);
         // One pass over the V x k basis (a GEMM with three columns would
         // first copy all of it into its packed layout).
-        for (v, row) in self.basis.rows().chunks_exact(k).enumerate() {
-            let (mut a, mut b, mut d) = (0.0, 0.0, 0.0);
-            for i in 0..k {
-                a += row[i] * c0[i];
-                b += row[i] * c1[i];
-                d += row[i] * c2[i];
+        let mut sums = vec![[0.0; 3]; self.basis.n_vertices()];
+        crate::kernels::rows_dot3(self.basis.rows(), k, [c0, c1, c2], &mut sums);
+        for ((o, x), s) in out.chunks_exact_mut(3).zip(x0.chunks_exact(3)).zip(&sums) {
+            for a in 0..3 {
+                o[a] = x[a] + s[a];
             }
-            out[3 * v] = x0[3 * v] + a;
-            out[3 * v + 1] = x0[3 * v + 1] + b;
-            out[3 * v + 2] = x0[3 * v + 2] + d;
         }
     }
 }

@@ -60,6 +60,7 @@ impl ShapeModel {
         x: &[Vec3],
         which: &[usize],
     ) -> Result<Vec<Measured>> {
+        crate::kernels::clear_upper_registers();
         let out = measurer
             .measure(x, which)
             .map_err(|e| ModelError::Measure(e.to_string()))?;

@@ -347,10 +347,10 @@ fn vertices_are_the_start_plus_the_basis_times_the_coefficients() {
     let k = basis.k();
     for v in 0..n {
         for a in 0..3 {
-            let mut sum = 0.0;
-            for i in 0..k {
-                sum += basis.row(v)[i] * c[a * k + i];
-            }
+            // Summed as `dot` does (four partial sums, `kernels::rows_dot3`).
+            let sum = crate::lbfgs::dot(basis.row(v), &c[a * k..(a + 1) * k]);
+            let plain: f64 = (0..k).map(|i| basis.row(v)[i] * c[a * k + i]).sum();
+            assert!((sum - plain).abs() <= 1e-12 * (1.0 + plain.abs()));
             let want = x0[3 * v + a] + sum;
             assert_eq!(
                 x[3 * v + a].to_bits(),
