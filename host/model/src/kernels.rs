@@ -1,18 +1,17 @@
-//! Row-by-row products over the prediction's large dense matrices (the PCA
-//! basis, 3V x K; the smooth basis, V x k), several rows at a time.
+//! Dense passes of the prediction over its large matrices (the PCA basis,
+//! 3V x K; the smooth basis, V x k), and the register state they need.
 //!
 //! Why: a sum is one chain of dependent additions (floating-point addition
 //! is not reassociated), so a loop with one running sum per row waits on
 //! the adder's latency at every entry and runs at a fraction of the
-//! memory's speed. These keep several independent partial sums in a fixed
-//! order (that of [`crate::lbfgs::dot`] for each row), so the results are
-//! the same on every run and bit for bit those of `dot` (tests below).
-//! Hand-written: a GEMM (faer, matrixmultiply) first copies the whole
-//! matrix into its packed layout and sums in its own order; these are
-//! single passes.
-
-/// Rows of the PCA basis handled together.
-const BLOCK: usize = 4;
+//! memory's speed. [`rows_dot3`] keeps twelve independent partial sums in
+//! a fixed order (that of [`crate::lbfgs::dot`] for each row), so its
+//! results are the same on every run and bit for bit those of `dot` (tests
+//! below). (Four rows of the PCA basis at a time, each in `dot`'s order,
+//! measured no faster than one at a time: 52.8 against 50.6 ms a paper34
+//! prediction.) Hand-written: a GEMM (faer, matrixmultiply) first copies
+//! the whole matrix into its packed layout and sums in its own order; this
+//! is a single pass.
 
 /// Clears the upper halves of the vector registers (`vzeroupper`) where
 /// the processor has AVX; nothing elsewhere.
@@ -94,56 +93,6 @@ pub(crate) fn rows_dot3(rows: &[f64], k: usize, c: [&[f64]; 3], out: &mut [[f64;
     }
 }
 
-/// For each row `r` of `rows` (`n x k`, row-major, `k >= 1`, entries f32 or
-/// f64), `crate::lbfgs::dot_widened(row, s)` (`s`: `k` entries), bit for
-/// bit, passed as `out(r, value)` in row order.
-///
-/// Panics if `rows.len()` is not a multiple of `k` or `s` is shorter than `k`.
-pub(crate) fn rows_dot_widened<T: Copy + Into<f64>>(
-    rows: &[T],
-    k: usize,
-    s: &[f64],
-    mut out: impl FnMut(usize, f64),
-) {
-    assert!(k > 0 && rows.len().is_multiple_of(k), "rows must be n x k");
-    clear_upper_registers();
-    let s = &s[..k];
-    let whole = k - k % 4;
-    let (s_main, s_tail) = s.split_at(whole);
-    // What `dot_widened` adds after its four partial sums: the products of
-    // the last k mod 4 entries, summed as its `tail` is.
-    let tail = |row: &[T]| -> f64 {
-        row[whole..]
-            .iter()
-            .zip(s_tail)
-            .map(|(x, y)| (*x).into() * y)
-            .sum()
-    };
-    let blocks = rows.chunks_exact(BLOCK * k);
-    let rest = blocks.remainder();
-    let mut r = 0;
-    for block in blocks {
-        let rs: [&[T]; BLOCK] = std::array::from_fn(|b| &block[b * k..(b + 1) * k]);
-        let mut acc = [[0.0f64; 4]; BLOCK];
-        for (j, sj) in s_main.chunks_exact(4).enumerate() {
-            for (a, row) in acc.iter_mut().zip(&rs) {
-                let x = &row[4 * j..4 * j + 4];
-                for l in 0..4 {
-                    a[l] += x[l].into() * sj[l];
-                }
-            }
-        }
-        for (a, row) in acc.iter().zip(&rs) {
-            out(r, (a[0] + a[1]) + (a[2] + a[3]) + tail(row));
-            r += 1;
-        }
-    }
-    for row in rest.chunks_exact(k) {
-        out(r, crate::lbfgs::dot_widened(row, s));
-        r += 1;
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -173,30 +122,6 @@ mod tests {
                         let plain: f64 = row.iter().zip(&c[a]).map(|(x, y)| x * y).sum();
                         assert!((s[a] - plain).abs() <= 1e-9 * (1.0 + plain.abs()));
                     }
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn rows_dot_widened_matches_dot_widened_bit_for_bit() {
-        for k in [1, 3, 4, 6, 100, 101] {
-            for n in [0, 1, 4, 6, 11] {
-                let wide: Vec<f64> = (0..n * k).map(noise).collect();
-                let narrow: Vec<f32> = wide.iter().map(|&v| v as f32).collect();
-                let s: Vec<f64> = (0..k).map(|i| 0.05 * noise(104_729 + i)).collect();
-                let mut got = Vec::new();
-                rows_dot_widened(&wide, k, &s, |r, v| got.push((r, v)));
-                let mut got32 = Vec::new();
-                rows_dot_widened(&narrow, k, &s, |r, v| got32.push((r, v)));
-                assert_eq!(got.len(), n);
-                assert_eq!(got32.len(), n);
-                for ((r, v), (r32, v32)) in got.into_iter().zip(got32) {
-                    assert_eq!(r, r32);
-                    let want = crate::lbfgs::dot_widened(&wide[r * k..(r + 1) * k], &s);
-                    let want32 = crate::lbfgs::dot_widened(&narrow[r * k..(r + 1) * k], &s);
-                    assert_eq!(v.to_bits(), want.to_bits(), "k {k} n {n} row {r}");
-                    assert_eq!(v32.to_bits(), want32.to_bits(), "k {k} n {n} row {r} (f32)");
                 }
             }
         }

@@ -329,9 +329,11 @@ impl Pca {
         assert_eq!(w.len(), k, "weights must have K entries");
         let scaled: Vec<f64> = w.iter().zip(&self.sigma).map(|(a, b)| a * b).collect();
         fn rows<T: Copy + Into<f64>>(mean: &[f64], basis: &[T], k: usize, s: &[f64]) -> Vec<f64> {
-            let mut out = mean.to_vec();
-            crate::kernels::rows_dot_widened(basis, k, s, |r, v| out[r] += v);
-            out
+            crate::kernels::clear_upper_registers();
+            mean.iter()
+                .zip(basis.chunks_exact(k.max(1)))
+                .map(|(m, row)| m + crate::lbfgs::dot_widened(row, s))
+                .collect()
         }
         if k == 0 {
             return self.mean.clone();

@@ -272,18 +272,22 @@ impl<'a> ReducedObjective<'a> {
         let (d, _) = &mut *guard;
         self.segments(c, d);
         let (_, u) = self.lengths(d);
-        let mut jac = Mat::<f64>::zeros(n_r, 3 * k);
+        // Built row-major (each term adds to contiguous runs of its
+        // reading's row), then viewed as a matrix.
+        let mut jac_rows = vec![0.0; n_r * 3 * k];
         for (e, &j) in fit.owner.iter().enumerate() {
             let row = &self.bt[e * k..(e + 1) * k];
             for a in 0..3 {
                 let ua = u[a * m + e];
                 if ua != 0.0 {
-                    for (i, b) in row.iter().enumerate() {
-                        jac[(j, a * k + i)] += ua * b;
+                    let dst = &mut jac_rows[j * 3 * k + a * k..j * 3 * k + (a + 1) * k];
+                    for (o, b) in dst.iter_mut().zip(row) {
+                        *o += ua * b;
                     }
                 }
             }
         }
+        let jac = MatRef::from_row_major_slice(&jac_rows, n_r, 3 * k);
         let dinv: Vec<f64> = (0..3 * k)
             .map(|j| 1.0 / (4.0 * self.lambda * self.basis.values()[j % k] + mu))
             .collect();
