@@ -22,6 +22,8 @@
 //! * [`refine`]: the objectives of step 1 (over the weights) and step 2 (over
 //!   the vertices).
 //! * [`map`]: step 1 as a Gauss-Newton MAP estimate (the default).
+//! * `kernels` (private): the dense passes over the bases, and clearing the
+//!   vector registers' upper halves that AVX-512 code elsewhere leaves in use.
 //! * [`predict`]: the prediction as stages (start, step 1, step 2, the clamp,
 //!   the shared round driver), its settings and its report ([`Prediction`]).
 //! * [`mod@file`]: the versioned model file (see `docs/model-format.md`).
