@@ -72,10 +72,11 @@ struct Step1Rounds<'a> {
     map_sd: Vec<f64>,
     /// L-BFGS iterations of a continuation round (`None`: the solver's).
     continuation_iters: Option<u64>,
-    /// The last shape measured by a Gauss-Newton round's backtracking
-    /// (its weights, vertices and readings), so that the next round, or the
-    /// end of the step, does not reconstruct and measure the same weights
-    /// again (each is a pass over the D x K basis and every support).
+    /// The last shape measured (by a Gauss-Newton round's backtracking or
+    /// at a round's start; its weights, vertices and readings), so that the
+    /// next round, or the end of the step, does not reconstruct and measure
+    /// the same weights again (each is a pass over the D x K basis and
+    /// every support).
     trial: Option<MeasuredShape>,
 }
 
@@ -209,8 +210,18 @@ impl RoundStep for Step1Rounds<'_> {
             return Ok(measured);
         }
         self.x = self.model.shape_unchecked(&self.w);
-        self.model
-            .measure_checked(self.measurer, &self.x, &self.which)
+        let measured = self
+            .model
+            .measure_checked(self.measurer, &self.x, &self.which)?;
+        // A round that ends the rounds (no progress, readings met) leaves
+        // these weights to the end of the step, which then measures nothing
+        // again unless the clamp changes them.
+        self.trial = Some(MeasuredShape {
+            weights: self.w.clone(),
+            vertices: self.x.clone(),
+            measured: measured.clone(),
+        });
+        Ok(measured)
     }
 
     /// After Gauss-Newton rounds the first continuation round switches
