@@ -32,6 +32,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::energy::SegmentTerm;
+use crate::lbfgs::dot;
 use crate::refine::segment_rows;
 
 /// The step-1 MAP problem of one round (see the module docs).
@@ -101,11 +102,14 @@ impl MapProblem {
         let k = self.k;
         let m = self.targets.len();
         let mut vals = vec![0.0; m];
-        let mut jac = jacobian.then(|| DMatrix::<f64>::zeros(m, k));
+        // The Jacobian row-major while it is summed (each segment adds to
+        // contiguous runs of its reading's row; the same additions in the
+        // same order as into the matrix itself).
+        let mut jac = jacobian.then(|| vec![0.0; m * k]);
         for (e, (&j, axis)) in self.owner.iter().zip(&self.axis).enumerate() {
             let r3 = &self.rows[3 * e * k..3 * (e + 1) * k];
-            let d: [f64; 3] =
-                std::array::from_fn(|c| self.base[3 * e + c] + dot(&r3[c * k..(c + 1) * k], w));
+            let dots = crate::kernels::dots3(r3, w);
+            let d: [f64; 3] = std::array::from_fn(|c| self.base[3 * e + c] + dots[c]);
             // Length and its direction (d length / d d).
             let (len, u) = match axis {
                 Some(n) => {
@@ -124,16 +128,17 @@ impl MapProblem {
             };
             vals[j] += len;
             if let Some(jm) = jac.as_mut() {
+                let row = &mut jm[j * k..(j + 1) * k];
                 for c in 0..3 {
                     if u[c] != 0.0 {
-                        for (i, a) in r3[c * k..(c + 1) * k].iter().enumerate() {
-                            jm[(j, i)] += u[c] * a;
+                        for (o, a) in row.iter_mut().zip(&r3[c * k..(c + 1) * k]) {
+                            *o += u[c] * a;
                         }
                     }
                 }
             }
         }
-        (vals, jac)
+        (vals, jac.map(|rows| DMatrix::from_row_slice(m, k, &rows)))
     }
 
     /// `F(w)` (see the module docs), dimensionless.
@@ -226,10 +231,6 @@ impl MapProblem {
             },
         )
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 #[cfg(test)]
