@@ -334,15 +334,38 @@ impl<'a> ReducedObjective<'a> {
     /// The segment vectors at coefficients `c` into `d` (m x 3, column-major).
     fn segments(&self, c: &[f64], d: &mut [f64]) {
         let (m, k) = (self.terms.len(), self.basis.k());
-        d.copy_from_slice(&self.dref);
-        matmul(
-            MatMut::from_column_major_slice_mut(d, m, 3),
-            Accum::Add,
-            self.bt(),
-            MatRef::from_column_major_slice(c, k, 3),
-            1.0,
-            Par::Seq,
-        );
+        if m == 0 {
+            return;
+        }
+        // One pass over the m x k rows (a GEMM would pack them first, at
+        // every evaluation).
+        let (c0, rest) = c.split_at(k);
+        let (c1, c2) = rest.split_at(k);
+        let mut sums = vec![[0.0; 3]; m];
+        crate::kernels::rows_dot3(&self.bt, k, [c0, c1, c2], &mut sums);
+        for (e, s) in sums.iter().enumerate() {
+            for a in 0..3 {
+                d[a * m + e] = self.dref[a * m + e] + s[a];
+            }
+        }
+    }
+
+    /// `grad = scale B_t^T gd` (3k, by coordinate) for per-term segment
+    /// gradients `gd` (m x 3, column-major): each term's row added into
+    /// the three coordinates' blocks, in term order.
+    fn pull_back(&self, gd: &[f64], scale: f64, grad: &mut [f64]) {
+        let (m, k) = (self.terms.len(), self.basis.k());
+        grad.fill(0.0);
+        for (e, row) in self.bt.chunks_exact(k).enumerate() {
+            for a in 0..3 {
+                let g = scale * gd[a * m + e];
+                if g != 0.0 {
+                    for (o, b) in grad[a * k..(a + 1) * k].iter_mut().zip(row) {
+                        *o += g * b;
+                    }
+                }
+            }
+        }
     }
 
     /// `H = 2 (1 - lambda) sum_e c_e g_e g_e^T + 4 lambda diag(sigma) + mu I`
@@ -568,14 +591,7 @@ impl Objective for ReducedObjective<'_> {
                 }
             }
         }
-        matmul(
-            MatMut::from_column_major_slice_mut(grad, k, 3),
-            Accum::Replace,
-            self.bt().transpose(),
-            MatRef::from_column_major_slice(gd, m, 3),
-            1.0 - self.lambda,
-            Par::Seq,
-        );
+        self.pull_back(gd, 1.0 - self.lambda, grad);
         let mut es = self.es0;
         for a in 0..3 {
             for (i, &s) in self.basis.values().iter().enumerate() {
