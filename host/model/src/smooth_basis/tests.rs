@@ -147,3 +147,28 @@ fn shared_waits_for_a_claimed_basis_and_a_dropped_claim_releases_it() {
     let got = waiter.join().unwrap();
     assert_eq!(*got, SmoothBasis::compute(n, &edges, k).unwrap());
 }
+
+#[test]
+fn edges_key_remembers_meshes_by_their_edges_not_their_address() {
+    // Six meshes (more than are remembered), asked for twice each, in
+    // place: the same buffer holds different edges each time.
+    let mut edges: Vec<[u32; 2]> = (0..500).map(|i| [i, i + 1]).collect();
+    let mut keys = Vec::new();
+    for round in 0..2 {
+        for m in 0..6u32 {
+            edges[7] = [7, 100 + m];
+            let key = edges_key(501, &edges);
+            assert_eq!(key, super::fnv_edges(501, &edges), "mesh {m}, round {round}");
+            if round == 0 {
+                keys.push(key);
+            } else {
+                assert_eq!(key, keys[m as usize]);
+            }
+        }
+    }
+    keys.sort_unstable();
+    keys.dedup();
+    assert_eq!(keys.len(), 6, "different edges, different keys");
+    // The vertex count is part of the key.
+    assert_ne!(edges_key(501, &edges), edges_key(502, &edges));
+}
