@@ -33,7 +33,7 @@ pub fn basis_path(dir: &Path, key: u64, k: usize) -> PathBuf {
 
 /// The file's bytes for `basis`.
 pub(crate) fn encode(basis: &SmoothBasis) -> Vec<u8> {
-    let mut body = Vec::with_capacity(basis.size_bytes());
+    let mut body = Vec::with_capacity(8 * (basis.values().len() + basis.rows().len()));
     for v in basis.values().iter().chain(basis.rows()) {
         body.extend_from_slice(&v.to_le_bytes());
     }

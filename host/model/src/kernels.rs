@@ -45,10 +45,12 @@ pub(crate) fn clear_upper_registers() {
     }
 }
 
-/// For each row `r` of `rows` (`n x k`, row-major, `k >= 1`), the three dot
-/// products `[dot(row, c[0]), dot(row, c[1]), dot(row, c[2])]` (`c[a]`: `k`
-/// entries), each bit for bit as `crate::lbfgs::dot` sums it (four partial
-/// sums), into `out[r]` (`n` entries). Units: those of the inputs' product.
+/// For each row `r` of `rows` (`n x k`, row-major, `k >= 1`, entries f64 or
+/// f32), the three dot products `[dot(row, c[0]), dot(row, c[1]), dot(row,
+/// c[2])]` (`c[a]`: `k` entries), each bit for bit as
+/// `crate::lbfgs::dot_widened` sums it (the row's entries widened to f64,
+/// four partial sums), into `out[r]` (`n` entries). Units: those of the
+/// inputs' product.
 ///
 /// One pass over the row for all three: twelve independent partial sums,
 /// which the compiler keeps in vector registers (measured on the 22 MB
@@ -61,7 +63,12 @@ pub(crate) fn clear_upper_registers() {
 /// Panics if `rows.len()` is not a multiple of `k`, a `c[a]` is shorter
 /// than `k` or `out` does not have one entry per row.
 #[inline(never)]
-pub(crate) fn rows_dot3(rows: &[f64], k: usize, c: [&[f64]; 3], out: &mut [[f64; 3]]) {
+pub(crate) fn rows_dot3<T: Copy + Into<f64>>(
+    rows: &[T],
+    k: usize,
+    c: [&[f64]; 3],
+    out: &mut [[f64; 3]],
+) {
     assert!(k > 0 && rows.len().is_multiple_of(k), "rows must be n x k");
     assert_eq!(out.len(), rows.len() / k, "one output per row");
     clear_upper_registers();
@@ -76,16 +83,17 @@ pub(crate) fn rows_dot3(rows: &[f64], k: usize, c: [&[f64]; 3], out: &mut [[f64;
             .zip(c2.chunks_exact(4));
         for (((x, p), q), s) in chunks {
             for l in 0..4 {
-                acc[0][l] += x[l] * p[l];
-                acc[1][l] += x[l] * q[l];
-                acc[2][l] += x[l] * s[l];
+                let x: f64 = x[l].into();
+                acc[0][l] += x * p[l];
+                acc[1][l] += x * q[l];
+                acc[2][l] += x * s[l];
             }
         }
         let tail = |c: &[f64]| -> f64 {
             row[whole..]
                 .iter()
                 .zip(&c[whole..])
-                .map(|(x, y)| x * y)
+                .map(|(x, y)| (*x).into() * y)
                 .sum()
         };
         let sums = [tail(c0), tail(c1), tail(c2)];
@@ -143,6 +151,15 @@ mod tests {
                     .collect();
                 let mut got = vec![[f64::NAN; 3]; n];
                 rows_dot3(&rows, k, [&c[0], &c[1], &c[2]], &mut got);
+                let narrow: Vec<f32> = rows.iter().map(|&v| v as f32).collect();
+                let mut got32 = vec![[f64::NAN; 3]; n];
+                rows_dot3(&narrow, k, [&c[0], &c[1], &c[2]], &mut got32);
+                for (r, s) in got32.iter().enumerate() {
+                    for a in 0..3 {
+                        let want = crate::lbfgs::dot_widened(&narrow[r * k..(r + 1) * k], &c[a]);
+                        assert_eq!(s[a].to_bits(), want.to_bits(), "f32, k {k} n {n} row {r}");
+                    }
+                }
                 for (r, s) in got.into_iter().enumerate() {
                     let row = &rows[r * k..(r + 1) * k];
                     for a in 0..3 {
@@ -174,7 +191,7 @@ mod tests {
     #[should_panic(expected = "n x k")]
     fn a_ragged_matrix_is_refused() {
         rows_dot3(
-            &[1.0; 5],
+            &[1.0f64; 5],
             2,
             [&[1.0; 2], &[1.0; 2], &[1.0; 2]],
             &mut [[0.0; 3]; 2],

@@ -65,6 +65,10 @@ pub struct SmoothBasis {
     /// V x k, row-major: row `v` is vertex `v`'s coefficients (unitless;
     /// the columns are orthonormal).
     rows: Vec<f64>,
+    /// `rows` rounded to f32, for the vertex map of every step-2 round
+    /// ([`crate::reduced::ReducedObjective::vertices`]): half the bytes of
+    /// a pass that is bound by memory (issue 13).
+    rows_f32: Vec<f32>,
     /// `sigma_i = b_i^T L b_i`, ascending (per unit coefficient squared).
     values: Vec<f64>,
     /// [`edges_key`] of the mesh it was computed for.
@@ -113,6 +117,11 @@ fn fnv_edges(n_vertices: usize, edges: &[[u32; 2]]) -> u64 {
         eat((u64::from(a) << 32) | u64::from(b));
     }
     h
+}
+
+/// `rows` rounded to f32 (the f32 copy of a basis).
+fn narrow(rows: &[f64]) -> Vec<f32> {
+    rows.iter().map(|&v| v as f32).collect()
 }
 
 /// Extra Krylov dimensions beyond `k` (and at least `k` more): the span of
@@ -292,6 +301,7 @@ impl SmoothBasis {
         Ok(Self {
             n_vertices: n,
             k,
+            rows_f32: narrow(&rows),
             rows,
             values,
             key: edges_key(n, edges),
@@ -329,9 +339,15 @@ impl SmoothBasis {
         self.key
     }
 
-    /// Bytes in memory (the basis and its values).
+    /// The V x k basis rounded to f32, row-major (each entry the nearest
+    /// f32 to the same entry of [`SmoothBasis::rows`]).
+    pub fn rows_f32(&self) -> &[f32] {
+        &self.rows_f32
+    }
+
+    /// Bytes in memory (the basis, its f32 copy and its values).
     pub fn size_bytes(&self) -> usize {
-        8 * (self.rows.len() + self.values.len())
+        8 * (self.rows.len() + self.values.len()) + 4 * self.rows_f32.len()
     }
 
     /// `out = B c` for one coordinate: `c` has k entries, `out` V.
@@ -367,6 +383,7 @@ impl SmoothBasis {
         Ok(Self {
             n_vertices,
             k,
+            rows_f32: narrow(&rows),
             rows,
             values,
             key,

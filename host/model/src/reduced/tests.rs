@@ -44,12 +44,25 @@ fn reduced_energy_and_gradient_are_the_full_ones_in_the_basis() {
     let c = random(obj.len(), 3, 2.0);
     let mut g = vec![0.0; obj.len()];
     let f = obj.eval(&c, &mut g);
-    let mut x = vec![0.0; reference.len()];
-    obj.vertices(&x0, &c, &mut x);
+    // x0 + B C with the basis itself (`vertices` reads its f32 copy).
+    let k = basis.k();
+    let x: Vec<f64> = (0..reference.len())
+        .map(|j| {
+            let (v, a) = (j / 3, j % 3);
+            x0[j] + (0..k).map(|i| basis.row(v)[i] * c[a * k + i]).sum::<f64>()
+        })
+        .collect();
     let mut gx = vec![0.0; x.len()];
     let fx = full.eval(&x, &mut gx);
     assert!((f - fx).abs() <= 1e-9 * fx.abs(), "{f} vs {fx}");
-    let k = basis.k();
+    // And at the f32 basis's vertices, to the basis's rounding.
+    let mut x32 = vec![0.0; reference.len()];
+    obj.vertices(&x0, &c, &mut x32);
+    let f32_energy = full.eval(&x32, &mut vec![0.0; x.len()]);
+    assert!(
+        (f - f32_energy).abs() <= 1e-6 * fx.abs(),
+        "{f} vs {f32_energy}"
+    );
     for a in 0..3 {
         for i in 0..k {
             let want: f64 = (0..n).map(|v| basis.row(v)[i] * gx[3 * v + a]).sum();
@@ -347,10 +360,17 @@ fn vertices_are_the_start_plus_the_basis_times_the_coefficients() {
     let k = basis.k();
     for v in 0..n {
         for a in 0..3 {
-            // Summed as `dot` does (four partial sums, `kernels::rows_dot3`).
-            let sum = crate::lbfgs::dot(basis.row(v), &c[a * k..(a + 1) * k]);
-            let plain: f64 = (0..k).map(|i| basis.row(v)[i] * c[a * k + i]).sum();
-            assert!((sum - plain).abs() <= 1e-12 * (1.0 + plain.abs()));
+            // The f32 basis's row, summed as `dot_widened` does (four
+            // partial sums, `kernels::rows_dot3`).
+            let row32 = &basis.rows_f32()[v * k..(v + 1) * k];
+            let sum = crate::lbfgs::dot_widened(row32, &c[a * k..(a + 1) * k]);
+            // Within the f32 rounding of the basis of the exact B c.
+            let exact: f64 = (0..k).map(|i| basis.row(v)[i] * c[a * k + i]).sum();
+            let size: f64 = (0..k).map(|i| (basis.row(v)[i] * c[a * k + i]).abs()).sum();
+            assert!(
+                (sum - exact).abs() <= 1e-7 * size + 1e-15,
+                "{sum} vs {exact}"
+            );
             let want = x0[3 * v + a] + sum;
             assert_eq!(
                 x[3 * v + a].to_bits(),

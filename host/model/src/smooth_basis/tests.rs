@@ -158,7 +158,11 @@ fn edges_key_remembers_meshes_by_their_edges_not_their_address() {
         for m in 0..6u32 {
             edges[7] = [7, 100 + m];
             let key = edges_key(501, &edges);
-            assert_eq!(key, super::fnv_edges(501, &edges), "mesh {m}, round {round}");
+            assert_eq!(
+                key,
+                super::fnv_edges(501, &edges),
+                "mesh {m}, round {round}"
+            );
             if round == 0 {
                 keys.push(key);
             } else {
