@@ -61,7 +61,7 @@ pub(crate) enum PathError {
 /// A point of a surface path: `(1 - t) p_a + t p_b` (`a == b`, `t == 0` for a vertex).
 pub(crate) type PathPoint = (u32, u32, f64);
 
-#[derive(PartialEq)]
+#[derive(Debug, PartialEq)]
 struct Item {
     /// Priority: path length so far plus the straight-line distance to the target.
     dist: f64,
@@ -87,6 +87,73 @@ impl Ord for Item {
             .total_cmp(&self.dist)
             .then_with(|| other.v.cmp(&self.v))
     }
+}
+
+/// The per-vertex state of one search, kept per thread from one search to
+/// the next: a prediction measures a dozen geodesics per round, and clearing
+/// two arrays over every vertex of the template for each (a few hundred KB)
+/// cost more than the search itself, which visits a small part of the mesh
+/// (issue 13). Hand-written: the same few lines as the search's own arrays,
+/// with an epoch per vertex instead of a clear.
+#[derive(Debug, Default)]
+struct Search {
+    best: Best,
+    /// Predecessor vertex, and the crossed edge `(a, b)` for an across step
+    /// (`u32::MAX` for a plain edge). Read only along the path found, whose
+    /// every vertex this search wrote, so it is never cleared.
+    pred: Vec<(u32, u32, u32)>,
+    heap: BinaryHeap<Item>,
+}
+
+/// Path length so far per vertex (metres), infinite for a vertex this
+/// search has not reached: an entry counts only if its stamp is the
+/// current epoch.
+#[derive(Debug, Default)]
+struct Best {
+    epoch: u32,
+    stamp: Vec<u32>,
+    dist: Vec<f64>,
+}
+
+impl Best {
+    fn get(&self, v: u32) -> f64 {
+        if self.stamp[v as usize] == self.epoch {
+            self.dist[v as usize]
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    fn set(&mut self, v: u32, d: f64) {
+        self.stamp[v as usize] = self.epoch;
+        self.dist[v as usize] = d;
+    }
+}
+
+impl Search {
+    /// Starts a search over `n` vertices: every vertex unreached, the heap
+    /// empty.
+    fn begin(&mut self, n: usize) {
+        self.heap.clear();
+        let best = &mut self.best;
+        if best.stamp.len() != n {
+            best.stamp = vec![0; n];
+            best.dist = vec![f64::INFINITY; n];
+            best.epoch = 0;
+            self.pred = vec![(u32::MAX, u32::MAX, u32::MAX); n];
+        }
+        best.epoch = best.epoch.wrapping_add(1);
+        if best.epoch == 0 {
+            // After 2^32 searches: every stamp is from an earlier epoch.
+            best.stamp.fill(0);
+            best.epoch = 1;
+        }
+    }
+}
+
+thread_local! {
+    /// This thread's search state (see [`Search`]).
+    static SEARCH: std::cell::RefCell<Search> = std::cell::RefCell::default();
 }
 
 fn finite(p: Vec3) -> bool {
@@ -191,13 +258,28 @@ impl EdgeGraph {
         if from == to {
             return Ok(vec![(from, from, 0.0)]);
         }
-        let n = p.len();
-        let mut best = vec![f64::INFINITY; n];
-        // Predecessor vertex, and the crossed edge `(a, b)` for an across step
-        // (`u32::MAX` for a plain edge).
-        let mut pred = vec![(u32::MAX, u32::MAX, u32::MAX); n];
-        let mut heap = BinaryHeap::new();
-        best[from as usize] = 0.0;
+        SEARCH.with(|cell| match cell.try_borrow_mut() {
+            Ok(mut search) => self.search(&mut search, p, from, to, method),
+            // Only if a search re-entered this thread's (it does not): a
+            // fresh state, the same result.
+            Err(_) => self.search(&mut Search::default(), p, from, to, method),
+        })
+    }
+
+    /// [`EdgeGraph::shortest_path`] with the per-vertex state in `search`.
+    fn search(
+        &self,
+        search: &mut Search,
+        p: &[Vec3],
+        from: u32,
+        to: u32,
+        method: GeodesicMethod,
+    ) -> Result<Vec<PathPoint>, PathError> {
+        search.begin(p.len());
+        let Search {
+            best, pred, heap, ..
+        } = search;
+        best.set(from, 0.0);
         let target = p[to as usize];
         heap.push(Item {
             dist: dist(p[from as usize], target),
@@ -205,7 +287,7 @@ impl EdgeGraph {
             v: from,
         });
         while let Some(Item { g: d, v, .. }) = heap.pop() {
-            if d > best[v as usize] {
+            if d > best.get(v) {
                 continue; // stale entry
             }
             if v == to {
@@ -238,8 +320,8 @@ impl EdgeGraph {
                     return Err(PathError::NonFinite(if finite(pv) { w } else { v }));
                 }
                 let nd = d + len;
-                if nd < best[w as usize] {
-                    best[w as usize] = nd;
+                if nd < best.get(w) {
+                    best.set(w, nd);
                     pred[w as usize] = (v, u32::MAX, u32::MAX);
                     heap.push(Item {
                         dist: nd + dist(pw, target),
@@ -259,8 +341,8 @@ impl EdgeGraph {
                         continue; // misses the edge, or non-finite (caught by the edge steps)
                     };
                     let nd = d + len;
-                    if nd < best[w as usize] {
-                        best[w as usize] = nd;
+                    if nd < best.get(w) {
+                        best.set(w, nd);
                         pred[w as usize] = (v, a, b);
                         heap.push(Item {
                             dist: nd + dist(p[w as usize], target),
@@ -272,5 +354,65 @@ impl EdgeGraph {
             }
         }
         Err(PathError::Unreachable)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A bumpy `n x n` grid of unit squares, each split into two triangles.
+    fn grid(n: u32, bump: f64) -> (Topology, Vec<Vec3>) {
+        let at = |i: u32, j: u32| i * n + j;
+        let mut faces = Vec::new();
+        for i in 0..n - 1 {
+            for j in 0..n - 1 {
+                faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                faces.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        let p = (0..n * n)
+            .map(|v| {
+                let (x, y) = (f64::from(v / n), f64::from(v % n));
+                [x, y, bump * (0.7 * x).sin() * (1.3 * y).cos()]
+            })
+            .collect();
+        (Topology::new((n * n) as usize, faces).unwrap(), p)
+    }
+
+    /// The state kept between searches (other meshes, other sizes, the
+    /// epoch wrapping around) gives exactly the paths of a fresh state.
+    #[test]
+    fn kept_search_state_gives_the_paths_of_a_fresh_one() {
+        let mut kept = Search::default();
+        for (round, (n, bump)) in [(6, 0.0), (9, 0.8), (6, 1.5), (9, 0.3)]
+            .into_iter()
+            .enumerate()
+        {
+            let (topology, p) = grid(n, bump);
+            let graph = EdgeGraph::new(&topology);
+            if round == 2 {
+                // Two searches before the epoch counter wraps.
+                kept.best.epoch = u32::MAX - 1;
+            }
+            for method in [GeodesicMethod::Edges, GeodesicMethod::Unfolded] {
+                for (from, to) in [
+                    (0, n * n - 1),
+                    (n - 1, n * (n - 1)),
+                    (3, 3),
+                    (n + 1, 2 * n + 4),
+                ] {
+                    let fresh = graph.search(&mut Search::default(), &p, from, to, method);
+                    let again = graph.search(&mut kept, &p, from, to, method);
+                    assert_eq!(
+                        fresh.as_ref().ok(),
+                        again.as_ref().ok(),
+                        "{n} {from}->{to} {method:?}"
+                    );
+                    assert_eq!(fresh, graph.shortest_path(&p, from, to, method));
+                }
+            }
+        }
+        assert!(kept.best.epoch < 100, "the epoch wrapped around");
     }
 }
