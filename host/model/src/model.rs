@@ -167,11 +167,7 @@ impl ShapeModel {
 
     /// [`ShapeModel::shape`] for weights known to have length K.
     pub(crate) fn shape_unchecked(&self, w: &[f64]) -> Vec<Vec3> {
-        self.pca
-            .reconstruct(w)
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect()
+        self.pca.reconstruct_points(w)
     }
 
     /// Training mean and standard deviation of every measurement (metres).

@@ -344,6 +344,46 @@ impl Pca {
         }
     }
 
+    /// [`Pca::reconstruct`] as points: `D / 3` entries `[x, y, z]` (metres),
+    /// bit for bit the same values, without the flat vector in between (a
+    /// prediction reconstructs a shape in every round).
+    ///
+    /// Panics if `w` does not have K entries or D is not a multiple of 3.
+    pub fn reconstruct_points(&self, w: &[f64]) -> Vec<[f64; 3]> {
+        let k = self.n_components;
+        assert_eq!(w.len(), k, "weights must have K entries");
+        assert!(self.dim().is_multiple_of(3), "shapes must be points");
+        if k == 0 {
+            return self
+                .mean
+                .chunks_exact(3)
+                .map(|m| [m[0], m[1], m[2]])
+                .collect();
+        }
+        let scaled: Vec<f64> = w.iter().zip(&self.sigma).map(|(a, b)| a * b).collect();
+        fn points<T: Copy + Into<f64>>(
+            mean: &[f64],
+            basis: &[T],
+            k: usize,
+            s: &[f64],
+        ) -> Vec<[f64; 3]> {
+            crate::kernels::clear_upper_registers();
+            let dot = crate::lbfgs::dot_widened::<T>;
+            mean.chunks_exact(3)
+                .zip(basis.chunks_exact(3 * k))
+                .map(|(m, rows)| {
+                    let (r0, rest) = rows.split_at(k);
+                    let (r1, r2) = rest.split_at(k);
+                    [m[0] + dot(r0, s), m[1] + dot(r1, s), m[2] + dot(r2, s)]
+                })
+                .collect()
+        }
+        match self.basis_f32() {
+            Some(b) => points(&self.mean, b, k, &scaled),
+            None => points(&self.mean, self.basis(), k, &scaled),
+        }
+    }
+
     /// Normalised weights of a shape `x` (flat, length D, metres):
     /// `w = A^T (x - mu) / sigma` (orthogonal projection onto the PCA space).
     pub fn project(&self, x: &[f64]) -> Vec<f64> {
@@ -417,6 +457,14 @@ mod tests {
         assert_eq!(wide.basis_f32(), Some(&rounded[..]));
         let w: Vec<f64> = (0..k).map(|j| 0.3 * j as f64 - 1.0).collect();
         assert_eq!(pca.reconstruct(&w), wide.reconstruct(&w));
+        assert_eq!(
+            pca.reconstruct_points(&w).as_flattened(),
+            &pca.reconstruct(&w)[..]
+        );
+        assert_eq!(
+            wide.reconstruct_points(&w).as_flattened(),
+            &wide.reconstruct(&w)[..]
+        );
         let x = pca.reconstruct(&w);
         assert_eq!(pca.project(&x), wide.project(&x));
         assert_eq!(pca.basis(), &widened[..]);
