@@ -98,14 +98,20 @@ impl MapProblem {
     /// The readings' values `m(w)` (M, mm) and, if `jacobian`, `dm/dw`
     /// (M x K, mm per unit weight).
     pub fn values(&self, w: &[f64], jacobian: bool) -> (Vec<f64>, Option<DMatrix<f64>>) {
+        let (vals, dirs) = self.values_dirs(w);
+        (vals, jacobian.then(|| self.jacobian(&dirs)))
+    }
+
+    /// The readings' values `m(w)` (M, mm) and, per segment, the unit
+    /// direction of its length's gradient with respect to its segment
+    /// vector (zero for a segment of length zero): what [`MapProblem::jacobian`]
+    /// needs, so that a solve sums each segment's dot products once per
+    /// weights.
+    fn values_dirs(&self, w: &[f64]) -> (Vec<f64>, Vec<[f64; 3]>) {
         crate::kernels::clear_upper_registers();
         let k = self.k;
-        let m = self.targets.len();
-        let mut vals = vec![0.0; m];
-        // The Jacobian row-major while it is summed (each segment adds to
-        // contiguous runs of its reading's row; the same additions in the
-        // same order as into the matrix itself).
-        let mut jac = jacobian.then(|| vec![0.0; m * k]);
+        let mut vals = vec![0.0; self.targets.len()];
+        let mut dirs = Vec::with_capacity(self.owner.len());
         for (e, (&j, axis)) in self.owner.iter().zip(&self.axis).enumerate() {
             let r3 = &self.rows[3 * e * k..3 * (e + 1) * k];
             let dots = crate::kernels::dots3(r3, w);
@@ -127,23 +133,42 @@ impl MapProblem {
                 }
             };
             vals[j] += len;
-            if let Some(jm) = jac.as_mut() {
-                let row = &mut jm[j * k..(j + 1) * k];
-                for c in 0..3 {
-                    if u[c] != 0.0 {
-                        for (o, a) in row.iter_mut().zip(&r3[c * k..(c + 1) * k]) {
-                            *o += u[c] * a;
-                        }
+            dirs.push(u);
+        }
+        (vals, dirs)
+    }
+
+    /// `dm/dw` (M x K, mm per unit weight) from the segments' directions of
+    /// [`MapProblem::values_dirs`] at the same weights.
+    fn jacobian(&self, dirs: &[[f64; 3]]) -> DMatrix<f64> {
+        crate::kernels::clear_upper_registers();
+        let k = self.k;
+        let m = self.targets.len();
+        // Row-major while it is summed (each segment adds to contiguous
+        // runs of its reading's row; the same additions in the same order
+        // as into the matrix itself).
+        let mut jac = vec![0.0; m * k];
+        for (e, (&j, u)) in self.owner.iter().zip(dirs).enumerate() {
+            let r3 = &self.rows[3 * e * k..3 * (e + 1) * k];
+            let row = &mut jac[j * k..(j + 1) * k];
+            for c in 0..3 {
+                if u[c] != 0.0 {
+                    for (o, a) in row.iter_mut().zip(&r3[c * k..(c + 1) * k]) {
+                        *o += u[c] * a;
                     }
                 }
             }
         }
-        (vals, jac.map(|rows| DMatrix::from_row_slice(m, k, &rows)))
+        DMatrix::from_row_slice(m, k, &jac)
     }
 
     /// `F(w)` (see the module docs), dimensionless.
     pub fn objective(&self, w: &[f64]) -> f64 {
-        let (vals, _) = self.values(w, false);
+        self.objective_at(&self.values_dirs(w).0, w)
+    }
+
+    /// `F` from the readings' values `vals` at `w`.
+    fn objective_at(&self, vals: &[f64], w: &[f64]) -> f64 {
         let data: f64 = vals
             .iter()
             .zip(&self.targets)
@@ -169,7 +194,10 @@ impl MapProblem {
             .filter(|&i| held.get(i).is_none_or(|h| !h))
             .collect();
         let mut w = w.to_vec();
-        let f0 = self.objective(&w);
+        // The values and directions at the current weights: from the start,
+        // then from the accepted trial (each evaluated once).
+        let (mut vals, mut dirs) = self.values_dirs(&w);
+        let f0 = self.objective_at(&vals, &w);
         let mut f = f0;
         let mut iterations = 0;
         let m = self.n_readings();
@@ -184,8 +212,7 @@ impl MapProblem {
         }
         while iterations < max_iters {
             iterations += 1;
-            let (vals, jac) = self.values(&w, true);
-            let jac = jac.expect("asked for the Jacobian");
+            let jac = self.jacobian(&dirs);
             let jf = jac.select_columns(&free);
             let wf = DVector::from_iterator(free.len(), free.iter().map(|&i| w[i]));
             let rhs =
@@ -206,19 +233,22 @@ impl MapProblem {
                 for (p, &i) in free.iter().enumerate() {
                     trial[i] = w[i] + alpha * (target[p] - w[i]);
                 }
-                let ft = self.objective(&trial);
+                let (tv, td) = self.values_dirs(&trial);
+                let ft = self.objective_at(&tv, &trial);
                 if ft.is_finite() && ft < f {
-                    accepted = Some((trial, ft));
+                    accepted = Some((trial, ft, tv, td));
                     break;
                 }
                 alpha *= 0.5;
             }
-            let Some((trial, ft)) = accepted else {
+            let Some((trial, ft, tv, td)) = accepted else {
                 break;
             };
             let gain = f - ft;
             w = trial;
             f = ft;
+            vals = tv;
+            dirs = td;
             if gain <= rel_tol * f.max(f64::MIN_POSITIVE) {
                 break;
             }
