@@ -132,7 +132,6 @@ const BLOCK: usize = 8;
 
 /// The bases of this process (few: one per topology and `k`), and those
 /// another thread is preparing ([`SmoothBasis::preparing`]).
-#[derive(Default)]
 struct Shared {
     ready: Vec<Arc<SmoothBasis>>,
     /// `(n_vertices, key, k)` of bases being prepared.
