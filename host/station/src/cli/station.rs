@@ -214,13 +214,7 @@ fn run_tui(args: Args, global: &Global) -> anyhow::Result<()> {
     // Load the model while the operator types the first customer, so that
     // the first estimate is as fast as the tenth (an error shows at the
     // first estimate, where the interface reports it).
-    let _ = std::thread::Builder::new()
-        .name("model-warm-up".into())
-        .spawn(|| {
-            if let Ok(e) = tapeshape_estimator::Estimator::default_model() {
-                e.warm_up(&tapeshape_estimator::PredictOptions::default());
-            }
-        });
+    let _ = crate::services::station::warm_up_in_background();
     let options = crate::tui::runner::RunOptions {
         sessions,
         port_label: port.display().to_string(),

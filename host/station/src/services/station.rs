@@ -64,6 +64,25 @@ impl StationServices {
     }
 }
 
+/// Loads the embedded default model and prepares what its estimates need
+/// (the smooth basis of step 2) on a thread of its own, as the station
+/// does at start while the operator types the first customer: the first
+/// estimate is then as fast as the tenth (`cargo bench -p tapeshape
+/// --bench first_estimate`). A model that cannot be loaded is left to the
+/// first estimate, which reports the error where the operator sees it.
+/// Returns the thread (dropped, it runs on detached); `None` if no thread
+/// could be started (the first estimate then loads the model).
+pub fn warm_up_in_background() -> Option<std::thread::JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("model-warm-up".into())
+        .spawn(|| {
+            if let Ok(e) = tapeshape_estimator::Estimator::default_model() {
+                e.warm_up(&tapeshape_estimator::PredictOptions::default());
+            }
+        })
+        .ok()
+}
+
 /// The body of a stored estimate as binary glTF (Y up, metres), for the
 /// chain's hub and its 3D viewer; `None` if it is not on the default
 /// model's template (or the model cannot be loaded).
