@@ -12,6 +12,9 @@
 //! range over the runs, for a pause of 0 (a reading the moment the station
 //! is up) and of 1 s.
 //!
+//! The processes use the `tapeshape` binary's allocator and its tuning
+//! (`tapeshape::alloc`), as the station does.
+//!
 //! Run: `cargo bench -p tapeshape --bench first_estimate` (after `--`: the
 //! number of runs, default 10).
 
@@ -23,6 +26,11 @@ use std::time::{Duration, Instant};
 use tapeshape::services::station::{warm_up_in_background, StationServices};
 use tapeshape::services::{EstimateEvent, EstimateRequest, Services as _};
 use tapeshape::session::Sessions;
+
+/// The `tapeshape` binary's allocator (see `host/station/src/main.rs`).
+#[cfg(target_os = "linux")]
+#[global_allocator]
+static ALLOC: tapeshape::alloc::HugePageHint = tapeshape::alloc::HugePageHint;
 
 /// Estimates per process.
 const ESTIMATES: usize = 10;
@@ -115,6 +123,8 @@ fn run(data: &Path, pause_ms: u64) -> Vec<f64> {
 }
 
 fn main() {
+    #[cfg(target_os = "linux")]
+    tapeshape::alloc::tune();
     if let Ok(spec) = std::env::var(CHILD) {
         let (pause, dir) = spec.split_once(' ').expect("pause and folder");
         child(
