@@ -325,6 +325,20 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                     mean(&vd1),
                     mean(&rms1)
                 );
+                // Paired: what step 2 did to the distance, body by body.
+                let d: Vec<f64> = vd.iter().zip(&vd1).map(|(a, b)| a - b).collect();
+                if d.len() > 1 {
+                    let md = mean(&d);
+                    let sd = (d.iter().map(|x| (x - md).powi(2)).sum::<f64>()
+                        / (d.len() - 1) as f64)
+                        .sqrt();
+                    println!(
+                        "| {label} | paired: full minus its step-1 shape, per body | | | | | {md:+.4} +- {:.4} (SE); closer on {}/{} bodies | | | |",
+                        sd / (d.len() as f64).sqrt(),
+                        d.iter().filter(|x| **x < 0.0).count(),
+                        d.len()
+                    );
+                }
             }
         }
     }
