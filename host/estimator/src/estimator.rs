@@ -14,6 +14,7 @@ use tapeshape_model::{
 use crate::cache;
 use crate::checks::RealStats;
 use crate::file::{load_model_bytes, DEFAULT_MODEL};
+use crate::priors::CANNOT_FOLLOW_ANSUR;
 use crate::warning::Warning;
 use crate::{Estimate, EstimateReport, Inputs, ModelSummary, PredictError, PredictOptions};
 
@@ -219,10 +220,31 @@ impl Estimator {
         Ok(out)
     }
 
+    /// Whether measurement `j` of the set is an ANSUR II dimension that the
+    /// standing A-pose mesh cannot take as ANSUR defines it
+    /// ([`crate::priors::CANNOT_FOLLOW_ANSUR`]): a survey's reading of it
+    /// ([`Inputs::ansur_survey`]) is recorded, not fitted.
+    pub fn cannot_follow(&self, j: usize) -> bool {
+        self.set.definitions[j]
+            .ansur
+            .as_deref()
+            .is_some_and(|c| CANNOT_FOLLOW_ANSUR.contains(&c))
+    }
+
+    fn names_of(&self, list: &[(usize, f64, Option<f64>)]) -> String {
+        list.iter()
+            .map(|&(j, _, _)| self.set.definitions[j].name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
     /// Estimates a body from `inputs` with `options` (the pipeline and the
     /// paper's l, lambda, s). The options are resolved and the inputs
     /// checked first ([`Estimator::check`]); the mesh is in the template
-    /// topology, metres, station frame.
+    /// topology, metres, station frame. With [`Inputs::ansur_survey`], a
+    /// reading that [`Estimator::cannot_follow`] is checked and recorded but
+    /// not fitted (the report's measurement says `recorded_only`, a
+    /// [`Warning::RecordedNotFitted`] names it); given alone, it is refused.
     pub fn predict(
         &self,
         inputs: &Inputs,
@@ -253,8 +275,35 @@ impl Estimator {
         let (checks, mut warnings) = self.check(inputs)?;
         let check_time = t0.elapsed();
         let mut targets: Vec<Option<Target>> = vec![None; self.set.len()];
+        // Survey readings of ANSUR II dimensions that the standing mesh
+        // cannot take as ANSUR defines them (issue 12, item 1) are checked
+        // and recorded, and inform the real-people soft targets below (as
+        // ANSUR's own quantity), but get no target: fitting the mesh's
+        // different quantity to them folds the body (docs/measurements.md).
+        let recorded_only: Vec<(usize, f64, Option<f64>)> = inputs
+            .readings
+            .iter()
+            .filter(|_| inputs.ansur_survey)
+            .filter_map(|r| {
+                let j = self.set.index_of(&r.name).expect("checked");
+                self.cannot_follow(j)
+                    .then_some((j, r.value.metres, r.tolerance))
+            })
+            .collect();
+        if recorded_only.len() == inputs.readings.len() {
+            return Err(PredictError::Input(format!(
+                "{} cannot be fitted: the standing body model cannot take {} as ANSUR II defines {} \
+(flexed girths, calipers that compress the tissue); enter at least one other measurement",
+                self.names_of(&recorded_only),
+                if recorded_only.len() == 1 { "it" } else { "them" },
+                if recorded_only.len() == 1 { "it" } else { "them" },
+            )));
+        }
         for r in &inputs.readings {
             let j = self.set.index_of(&r.name).expect("checked");
+            if recorded_only.iter().any(|&(k, _, _)| k == j) {
+                continue;
+            }
             targets[j] = Some(Target {
                 value: r.value.metres,
                 tolerance: r.tolerance,
@@ -290,6 +339,25 @@ impl Estimator {
             ModelError::Cancelled(stage) => PredictError::Cancelled(stage),
             e => PredictError::Model(e),
         })?;
+        let mut p = p;
+        for &(j, value, tolerance) in &recorded_only {
+            let name = &self.set.definitions[j].name;
+            let Some(m) = p.report.measurements.iter_mut().find(|m| &m.name == name) else {
+                continue;
+            };
+            m.target_mm = Some(value * 1000.0);
+            m.tolerance_mm = tolerance.map(|t| t * 1000.0);
+            m.error_mm = m.step2_mm.map(|v| (v - value * 1000.0).abs());
+            m.recorded_only = true;
+        }
+        if !recorded_only.is_empty() {
+            warnings.push(Warning::RecordedNotFitted {
+                measurements: recorded_only
+                    .iter()
+                    .map(|&(j, _, _)| self.set.definitions[j].name.clone())
+                    .collect(),
+            });
+        }
         let pl = &p.report.plausibility;
         if pl.measurements_label == tapeshape_model::PlausibilityLabel::Unusual {
             warnings.push(Warning::UnusualSet {

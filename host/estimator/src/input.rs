@@ -168,6 +168,16 @@ pub struct Inputs {
     /// refused; only impossible values are refused then.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub kept: Vec<String>,
+    /// The values were taken as the ANSUR II survey takes them (its
+    /// instruments and postures: calipers that compress the tissue, flexed
+    /// girths), as in survey data. Readings of the dimensions the standing
+    /// body model cannot take that way
+    /// ([`crate::priors::CANNOT_FOLLOW_ANSUR`], matched by the measurement's
+    /// ANSUR column) are then recorded, not fitted. `false` (the station):
+    /// each reading was taken as its measurement's description asks, which
+    /// the body follows.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub ansur_survey: bool,
 }
 
 impl Inputs {

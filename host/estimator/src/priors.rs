@@ -45,7 +45,8 @@ use crate::{Estimator, Inputs, PredictError};
 /// cervicale and suprasternale heights, shoulder length and biacromial
 /// breadth, whose mean offset on fitted bodies fell from 14-31 mm to under
 /// 5 mm.
-/// A reading of any of them given by an operator is still fitted.
+/// A reading of any of them given by an operator is still fitted, except a
+/// survey's reading of one of [`CANNOT_FOLLOW_ANSUR`].
 pub const NOT_YET_ANSUR: &[&str] = &[
     "bicepscircumferenceflexed",
     "bicristalbreadth",
@@ -63,7 +64,13 @@ pub const NOT_YET_ANSUR: &[&str] = &[
 /// taken flexed (elbow at 90 degrees, fist clenched), chest breadth and
 /// bicristal breadth with the caliper compressing the tissue (chest breadth
 /// at maximum inspiration). docs/measurements.md says the same per
-/// dimension.
+/// dimension. The measurement sets' descriptions ask the operator for what
+/// the mesh measures (skin to skin, relaxed), so a station's reading is
+/// fitted; a survey's reading taken as ANSUR takes it
+/// ([`crate::Inputs::ansur_survey`]) is checked and recorded, and informs
+/// the soft targets (real people's statistics are of ANSUR's own quantity),
+/// but the body is not fitted to it ([`crate::Estimator::cannot_follow`]):
+/// fitting the mesh's different quantity to it folded the chest and arms.
 pub const CANNOT_FOLLOW_ANSUR: &[&str] = &[
     "bicepscircumferenceflexed",
     "bicristalbreadth",

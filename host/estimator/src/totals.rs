@@ -64,6 +64,7 @@ impl Estimator {
             readings: Vec::new(),
             sex: inputs.sex,
             kept: inputs.kept.clone(),
+            ansur_survey: inputs.ansur_survey,
         };
         let mut splits = Vec::new();
         for r in &inputs.readings {

@@ -159,6 +159,13 @@ pub enum Warning {
         /// Mahalanobis distance of the readings.
         mahalanobis: f64,
     },
+    /// Readings recorded but not fitted: ANSUR II dimensions that the
+    /// standing body model cannot take as ANSUR defines them (flexed girths,
+    /// calipers that compress the tissue; [`crate::priors::CANNOT_FOLLOW_ANSUR`]).
+    RecordedNotFitted {
+        /// The readings' names.
+        measurements: Vec<String>,
+    },
     /// The model's own warning (its code is the model's).
     #[serde(untagged)]
     Model(tapeshape_model::Warning),
@@ -193,6 +200,19 @@ impl std::fmt::Display for Warning {
                 "estimated with unusual readings the operator kept ({}): the body fits them as far as a human-looking surface allows; the set's plausibility: {percent_closer:.1}% of the training population is closer to the mean (Mahalanobis distance {mahalanobis:.1})",
                 measurements.join(", ")
             ),
+            Self::RecordedNotFitted { measurements } => {
+                let (pronoun, takes) = if measurements.len() == 1 {
+                    ("it", "is")
+                } else {
+                    ("them", "are")
+                };
+                write!(
+                    f,
+                    "recorded, not fitted: {}: the standing body model cannot take {pronoun} as ANSUR II defines {pronoun} (flexed girths, calipers that compress the tissue), so the body does not follow {pronoun}; {} kept in the report beside the body's own value",
+                    measurements.join(", "),
+                    if takes == "is" { "the reading is" } else { "the readings are" }
+                )
+            }
             Self::Model(w) => w.fmt(f),
         }
     }
@@ -241,6 +261,9 @@ mod tests {
                 unit: Unit::Cm,
             },
             Warning::KeptAgainstOthers(against()),
+            Warning::RecordedNotFitted {
+                measurements: vec!["chestbreadth".into()],
+            },
             Warning::Model(tapeshape_model::Warning::TrianglesChanged {
                 flipped: 2,
                 collapsed: 0,
@@ -252,6 +275,7 @@ mod tests {
         .unwrap();
         assert!(json.contains(r#""code":"kept-against-others""#), "{json}");
         assert!(json.contains(r#""code":"triangles-changed""#), "{json}");
+        assert!(json.contains(r#""code":"recorded-not-fitted""#), "{json}");
         let back: Holder = serde_json::from_str(&json).unwrap();
         assert_eq!(back.warnings, all);
         let old: Holder = serde_json::from_str(r#"{"warnings":["an old warning"]}"#).unwrap();

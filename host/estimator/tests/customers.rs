@@ -355,3 +355,102 @@ fn an_unmeasured_neck_comes_out_where_real_people_have_it() {
         );
     }
 }
+
+/// Issue 12, item 1: a survey's reading of an ANSUR II dimension that the
+/// standing mesh cannot take as ANSUR defines it (chest breadth: a caliper
+/// that compresses the tissue; the biceps girth flexed, which the quick
+/// set's `upper_arm` holds in ANSUR data) is checked and recorded, informs
+/// what real people predict for the unmeasured, and is not fitted. A
+/// station's reading, taken as the set's description asks, is fitted.
+#[test]
+fn a_survey_caliper_chest_breadth_is_recorded_not_fitted() {
+    let e = estimator();
+    let survey = |pairs: &[&str]| {
+        let mut i = entered(pairs);
+        i.ansur_survey = true;
+        i
+    };
+    let mut readings: Vec<&str> = MAN.to_vec();
+    readings.push("chestbreadth=33cm");
+    // The model alone (no soft targets): the body is exactly the one of the
+    // other readings, so the reading moved nothing.
+    let alone = PredictOptions {
+        real_people: Some(None),
+        ..Default::default()
+    };
+    let with_breadth = e.predict(&survey(&readings), &alone).unwrap();
+    let without = e.predict(&survey(&MAN), &alone).unwrap();
+    assert_eq!(with_breadth.mesh.vertices, without.mesh.vertices);
+
+    let est = e
+        .predict(&survey(&readings), &PredictOptions::default())
+        .unwrap();
+    let report = |r: &tapeshape_estimator::EstimateReport, name: &str| {
+        r.prediction
+            .measurements
+            .iter()
+            .find(|m| m.name == name)
+            .unwrap()
+            .clone()
+    };
+    let m = report(&est.report, "chestbreadth");
+    assert!(m.recorded_only, "{m:?}");
+    assert_eq!(m.target_mm, Some(330.0));
+    let body = m.step2_mm.expect("measured on the body");
+    assert!((m.error_mm.unwrap() - (body - 330.0).abs()).abs() < 1e-9);
+    assert!(report(&est.report, "upper_arm").recorded_only);
+    assert!(!report(&est.report, "chest").recorded_only);
+    assert!(
+        est.report.inputs.iter().any(|c| c.name == "chestbreadth"),
+        "the reading keeps its checks"
+    );
+    assert!(
+        est.report.warnings.iter().any(|w| matches!(
+            w,
+            tapeshape_estimator::Warning::RecordedNotFitted { measurements }
+                if measurements == &["upper_arm".to_string(), "chestbreadth".to_string()]
+        )),
+        "{:?}",
+        est.report.warnings
+    );
+    let fitted = est
+        .report
+        .prediction
+        .measurements
+        .iter()
+        .filter(|m| m.target_mm.is_some() && !m.soft && !m.recorded_only)
+        .count();
+    assert_eq!(fitted, MAN.len() - 1);
+    // Real people's chest breadth is ANSUR's own quantity: it still moves
+    // what they predict for the unmeasured.
+    let typical = e
+        .predict(&survey(&MAN), &PredictOptions::default())
+        .unwrap();
+    assert_ne!(
+        est.report.soft_targets, typical.report.soft_targets,
+        "the chest breadth informs the soft targets"
+    );
+
+    // The station's reading (no survey): fitted, and met.
+    let station = e
+        .predict(&entered(&readings), &PredictOptions::default())
+        .unwrap();
+    let m = report(&station.report, "chestbreadth");
+    assert!(!m.recorded_only);
+    assert!(m.error_mm.unwrap() < 2.0, "{m:?}");
+    assert!(!station
+        .report
+        .warnings
+        .iter()
+        .any(|w| matches!(w, tapeshape_estimator::Warning::RecordedNotFitted { .. })));
+
+    // Given alone, there is nothing to fit: refused, saying what to do.
+    let err = e
+        .predict(&survey(&["chestbreadth=33cm"]), &PredictOptions::default())
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("enter at least one other measurement"),
+        "{err}"
+    );
+}

@@ -103,6 +103,7 @@ fn real_main() -> Result<(), String> {
         leave_out: get("--leave-out")
             .map(|v| v.split(',').map(String::from).collect())
             .unwrap_or_default(),
+        ansur_survey: false,
         options,
     };
     let read = |f: &str| Dataset::read(Path::new(f)).map_err(|e| format!("{f}: {e}"));

@@ -9,6 +9,9 @@
 //! Options: `--set quick|ansur` (the input), `--sex` (give each person's
 //! sex), `--per-sex N` (the first N of each sex by id; default all),
 //! `--leave-out COLUMN` (repeatable: an ANSUR column not entered),
+//! `--ansur-survey` (the values are ANSUR's own, as `tapeshape predict
+//! --ansur-survey` takes them: the dimensions the standing mesh cannot take
+//! as ANSUR does are recorded, not fitted, and left out of the ISO share),
 //! `--first none|smooth` (step 2's solver tried first, see
 //! `tapeshape_model::Step2Settings::first`),
 //! `--model FILE` (a model file instead of the embedded default: measure a
@@ -31,6 +34,7 @@ fn main() -> ExitCode {
         with_sex: false,
         per_sex: None,
         leave_out: Vec::new(),
+        ansur_survey: false,
         options: tapeshape_estimator::PredictOptions::default(),
     };
     let mut out = None;
@@ -73,6 +77,10 @@ fn main() -> ExitCode {
                 Ok(())
             }),
             "--leave-out" => value("an ANSUR column").map(|v| opts.leave_out.push(v)),
+            "--ansur-survey" => {
+                opts.ansur_survey = true;
+                Ok(())
+            }
             "--out" => value("a file").map(|v| out = Some(v)),
             "--model" => value("a model file").map(|v| model = Some(v)),
             "--surface-train" => value("a dataset file").map(|v| surface_train = Some(v)),

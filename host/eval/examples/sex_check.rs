@@ -93,6 +93,7 @@ fn real_main() -> Result<(), String> {
             with_sex,
             per_sex,
             leave_out: Vec::new(),
+            ansur_survey: false,
             options: tapeshape_estimator::PredictOptions::default(),
         };
         let r = run(estimator, &opts).map_err(|e| e.to_string())?;

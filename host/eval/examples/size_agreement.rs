@@ -97,6 +97,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         with_sex: true,
         per_sex,
         leave_out,
+        ansur_survey: false,
         options: PredictOptions::default(),
     };
     let t0 = std::time::Instant::now();

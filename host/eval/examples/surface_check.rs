@@ -215,6 +215,7 @@ fn calibrate(a: &Args) -> Result<()> {
             with_sex: true,
             per_sex: None,
             leave_out,
+            ansur_survey: false,
             options: PredictOptions::default(),
         };
         let entered = entered_readings(est, &opts)?;
@@ -284,6 +285,7 @@ fn figure(a: &Args) -> Result<()> {
             with_sex: true,
             per_sex: None,
             leave_out: leave_out.clone(),
+            ansur_survey: false,
             options: PredictOptions::default(),
         };
         let entered = entered_readings(est, &opts)?;

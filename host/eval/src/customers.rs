@@ -42,9 +42,17 @@ pub struct CustomersOptions {
     pub per_sex: Option<usize>,
     /// ANSUR columns left out of the input (e.g. flexed girths).
     pub leave_out: Vec<String>,
+    /// Enter the values as survey values taken as ANSUR II takes them
+    /// ([`tapeshape_estimator::Inputs::ansur_survey`]): readings the
+    /// standing mesh cannot take that way are recorded, not fitted.
+    pub ansur_survey: bool,
     /// The estimator's options (default: the station's).
     pub options: PredictOptions,
 }
+
+/// What [`CustomersRun::iso_pass`] puts after the name of a reading that
+/// was recorded, not fitted.
+pub const RECORDED_SUFFIX: &str = " (recorded, not fitted)";
 
 /// One person's outcome.
 #[derive(Debug, Clone)]
@@ -59,6 +67,10 @@ pub struct PersonResult {
     pub body: Vec<f64>,
     /// Per entered reading: (index in the union set, entered m, within ISO).
     pub entered: Vec<(usize, f64, bool)>,
+    /// Union-set indices of the entered readings the estimator recorded but
+    /// did not fit (the report's `recorded_only`: ANSUR II dimensions the
+    /// standing mesh cannot take as ANSUR does).
+    pub recorded_only: Vec<usize>,
     /// Flipped triangles of the result.
     pub flipped: usize,
     /// The estimate's warnings.
@@ -81,6 +93,7 @@ impl PersonResult {
             refused: None,
             body: Vec::new(),
             entered: Vec::new(),
+            recorded_only: Vec::new(),
             flipped: 0,
             warnings: Vec::new(),
             soft_sd_mm: Vec::new(),
@@ -224,18 +237,27 @@ impl CustomersRun {
 
     /// Share of entered readings (over all people estimated) within their
     /// ISO 20685-1 allowable error on the body, and per measurement name
-    /// (share, count).
+    /// (share, count). Readings the estimator recorded but did not fit
+    /// ([`PersonResult::recorded_only`]) are left out of the share (issue
+    /// 12, item 1: out of the checks) and listed per name with
+    /// [`RECORDED_SUFFIX`] after it.
     pub fn iso_pass(&self) -> (f64, BTreeMap<String, (f64, usize)>) {
         let mut per: BTreeMap<String, (usize, usize)> = BTreeMap::new();
         let (mut ok, mut all) = (0usize, 0usize);
         for p in self.people.iter().filter(|p| p.refused.is_none()) {
             for &(j, _, pass) in &p.entered {
-                let e = per.entry(self.names[j].clone()).or_default();
+                let recorded = p.recorded_only.contains(&j);
+                let name = if recorded {
+                    format!("{}{RECORDED_SUFFIX}", self.names[j])
+                } else {
+                    self.names[j].clone()
+                };
+                let e = per.entry(name).or_default();
                 e.1 += 1;
-                all += 1;
-                if pass {
-                    e.0 += 1;
-                    ok += 1;
+                e.0 += usize::from(pass);
+                if !recorded {
+                    all += 1;
+                    ok += usize::from(pass);
                 }
             }
         }
@@ -394,7 +416,8 @@ pub fn run_with_surface(
     let results: Vec<PersonResult> = people
         .par_iter()
         .map(|s| {
-            let inputs = inputs_of(s, &entered, opts.with_sex);
+            let mut inputs = inputs_of(s, &entered, opts.with_sex);
+            inputs.ansur_survey = opts.ansur_survey;
             let idx: Vec<(usize, f64)> = entered
                 .iter()
                 .filter_map(|(name, col)| {
@@ -412,6 +435,14 @@ pub fn run_with_surface(
                             .iter()
                             .filter(|(j, _)| *j < r.body.len())
                             .map(|&(j, v)| (j, v, within_iso(&union, j, r.body[j], v)))
+                            .collect();
+                        r.recorded_only = est
+                            .report
+                            .prediction
+                            .measurements
+                            .iter()
+                            .filter(|m| m.recorded_only)
+                            .filter_map(|m| union.index_of(&m.name))
                             .collect();
                         r.flipped = est.report.prediction.plausibility.flipped_triangles;
                         // The topology was checked above: judging cannot fail.
@@ -575,8 +606,15 @@ ratio **{:.3}**; the worst of them {} at {:.2} x.\n",
     }
     let _ = writeln!(
         s,
-        "\nEntered values re-measured on the body within ISO 20685-1: **{:.1} %**\n",
-        100.0 * iso
+        "\nEntered values re-measured on the body within ISO 20685-1: **{:.1} %**{}\n",
+        100.0 * iso,
+        if per.keys().any(|k| k.ends_with(RECORDED_SUFFIX)) {
+            " (the readings marked recorded, not fitted, are left out: the standing mesh \
+cannot take them as ANSUR II defines them, and the estimator does not fit them; their rows \
+below are for information)"
+        } else {
+            ""
+        }
     );
     let _ = writeln!(s, "| measurement | within ISO | readings |\n|---|---|---|");
     for (k, (share, count)) in &per {
@@ -738,6 +776,7 @@ mod tests {
             with_sex: true,
             per_sex: None,
             leave_out: vec!["chestbreadth".into()],
+            ansur_survey: false,
             options: PredictOptions::default(),
         };
         let page = markdown(&run, &opts, "cmd");

@@ -24,6 +24,7 @@ fn soft_targets_lower_the_unmeasured_error_and_readings_stay_within_iso() {
         with_sex: true,
         per_sex: Some(12),
         leave_out: Vec::new(),
+        ansur_survey: false,
         options: PredictOptions::default(),
     };
     let with = run(estimator, &opts).expect("run with soft targets");

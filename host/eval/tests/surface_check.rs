@@ -91,6 +91,7 @@ fn quick_bodies_pass_and_a_creased_body_fails() {
         with_sex: true,
         per_sex: Some(4),
         leave_out: Vec::new(),
+        ansur_survey: false,
         options: PredictOptions::default(),
     };
     let entered = entered_readings(estimator, &opts).unwrap();

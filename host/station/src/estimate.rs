@@ -399,6 +399,11 @@ pub struct ReportMeasurement {
     pub predicted_sd_mm: Option<f64>,
     /// `(reading - predicted) / sd`.
     pub conditional_z: Option<f64>,
+    /// Recorded, not fitted: an ANSUR II dimension the standing body model
+    /// cannot take as ANSUR defines it (the estimator's
+    /// `priors::CANNOT_FOLLOW_ANSUR`); `achieved_mm` is the body's own value.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub recorded_only: bool,
 }
 
 /// The plausibility part of the report.
@@ -525,6 +530,7 @@ pub fn report(estimate: &Estimate, session: &SessionInfo, files: Vec<String>) ->
                 predicted_mm: c.and_then(|c| c.predicted_mm),
                 predicted_sd_mm: c.and_then(|c| c.predicted_sd_mm),
                 conditional_z: c.and_then(|c| c.conditional_z),
+                recorded_only: m.recorded_only,
             })
         })
         .collect();

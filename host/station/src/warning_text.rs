@@ -63,6 +63,11 @@ pub fn warning_text_in(lang: Lang, w: &Warning) -> String {
             a.set("distance", format!("{mahalanobis:.1}"));
             t(msg!("warn-estimated-with-kept"), &a)
         }
+        Warning::RecordedNotFitted { measurements } => {
+            a.set("names", measurements.join(", "));
+            a.set("n", measurements.len());
+            t(msg!("warn-recorded-not-fitted"), &a)
+        }
         Warning::Model(m) => model_warning(lang, m),
     }
 }
@@ -333,6 +338,12 @@ mod tests {
                 measurements: vec!["neck".into(), "hip".into()],
                 percent_closer: 99.99,
                 mahalanobis: 13.04,
+            },
+            Warning::RecordedNotFitted {
+                measurements: vec!["chestbreadth".into()],
+            },
+            Warning::RecordedNotFitted {
+                measurements: vec!["chestbreadth".into(), "bicristalbreadth".into()],
             },
             Warning::Model(ModelWarning::SolverStopped {
                 stage: PredictStage::Step2,

@@ -340,3 +340,65 @@ fn predict_step2_chooses_the_solver_and_reports_it() {
         "{stderr}"
     );
 }
+
+/// `--ansur-survey`: a caliper chest breadth from ANSUR data is kept in the
+/// report and on the screen beside the body's value, not fitted; without
+/// the flag (a station's reading, skin to skin) it is fitted.
+#[test]
+fn predict_records_a_survey_chest_breadth_without_fitting_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let report = tmp.path().join("report.json");
+    let args = [
+        "predict",
+        "--measure",
+        "stature=176cm",
+        "--measure",
+        "chest=100cm",
+        "--measure",
+        "waist=88cm",
+        "--measure",
+        "chestbreadth=33cm",
+        "--sex",
+        "male",
+    ];
+    let chest_breadth = |survey: bool| {
+        let mut cmd = common::tapeshape(tmp.path(), &args);
+        if survey {
+            cmd.arg("--ansur-survey");
+        }
+        let out = cmd.arg("--report").arg(&report).output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+        let m = json["prediction"]["measurements"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["name"] == "chestbreadth")
+            .unwrap()
+            .clone();
+        (stdout, json, m)
+    };
+    let (stdout, json, m) = chest_breadth(true);
+    assert!(stdout.contains("chestbreadth (recorded)"), "{stdout}");
+    assert!(
+        stdout.contains("recorded, not fitted: chestbreadth"),
+        "{stdout}"
+    );
+    assert_eq!(m["recorded_only"], true, "{m}");
+    assert_eq!(m["target_mm"], 330.0, "{m}");
+    assert!(json["warning_codes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|w| w["code"] == "recorded-not-fitted"));
+    let (stdout, _, m) = chest_breadth(false);
+    assert!(!stdout.contains("recorded"), "{stdout}");
+    assert!(m.get("recorded_only").is_none(), "{m}");
+    assert!(m["error_mm"].as_f64().unwrap() < 2.0, "{m}");
+}

@@ -39,6 +39,13 @@ pub struct MeasurementReport {
     /// The target was a soft one ([`super::Target::soft`]), not a reading.
     #[serde(default)]
     pub soft: bool,
+    /// A reading recorded but not fitted: the caller gave the model no
+    /// target for it and filled `target_mm` (and `error_mm`) in afterwards
+    /// so that the report keeps what was entered beside the body's value
+    /// (the estimator does this for ANSUR II dimensions the standing mesh
+    /// cannot take as ANSUR defines them).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub recorded_only: bool,
 }
 
 /// Plausibility label from a chi-square quantile: below 0.95 typical, below
@@ -350,6 +357,7 @@ impl ShapeModel {
                 step2_mm: None,
                 error_mm: None,
                 soft: false,
+                recorded_only: false,
             })
             .collect();
         for (i, g) in readings.iter().enumerate() {

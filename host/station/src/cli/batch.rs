@@ -78,6 +78,14 @@ pub struct Args {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+
+    /// The values were taken as the ANSUR II survey takes them (calipers
+    /// that compress the tissue, flexed girths), as in ANSUR data: readings
+    /// of the dimensions the standing body cannot take that way (chest and
+    /// bicristal breadth, flexed biceps and forearm girths) are then
+    /// recorded in each report, not fitted.
+    #[arg(long)]
+    pub ansur_survey: bool,
 }
 
 /// One person of the survey.
@@ -255,7 +263,8 @@ fn file_safe(id: &str) -> bool {
 pub struct PersonReport {
     /// The person's id.
     pub id: String,
-    /// `m` or `f` when the survey gave it (not used by the model).
+    /// `m` or `f` when the survey gave it (the estimate then follows real
+    /// people of that sex for what was not measured).
     pub sex: Option<String>,
     /// sha256 (hex) of the readings as parsed (names, metres, units): a
     /// rerun skips the person only if this matches.
@@ -275,6 +284,10 @@ fn inputs_sha256(inputs: &Inputs, sex: Option<&str>) -> String {
         h.update(r.tolerance.unwrap_or(-1.0).to_le_bytes());
     }
     h.update(sex.unwrap_or("-").as_bytes());
+    // Only when set, so that the digests of earlier runs stay valid.
+    if inputs.ansur_survey {
+        h.update(b"\0ansur-survey");
+    }
     h.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
@@ -439,7 +452,12 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
     };
     let text = std::fs::read_to_string(&args.measurements)
         .with_context(|| format!("reading {}", args.measurements.display()))?;
-    let rows = read_rows(&text, &args.measurements.display().to_string())?;
+    let mut rows = read_rows(&text, &args.measurements.display().to_string())?;
+    if args.ansur_survey {
+        for inputs in rows.iter_mut().filter_map(|r| r.inputs.as_mut().ok()) {
+            inputs.ansur_survey = true;
+        }
+    }
     let owned;
     let estimator: &Estimator = match &args.model {
         Some(p) => {

@@ -60,6 +60,14 @@ pub struct Args {
     #[arg(long = "keep", value_name = "NAME")]
     pub keep: Vec<String>,
 
+    /// The values were taken as the ANSUR II survey takes them (calipers
+    /// that compress the tissue, flexed girths), as in ANSUR data: readings
+    /// of the dimensions the standing body cannot take that way (chest and
+    /// bicristal breadth, flexed biceps and forearm girths) are then
+    /// recorded in the report, not fitted.
+    #[arg(long)]
+    pub ansur_survey: bool,
+
     /// Estimate what was not measured from the model alone, without the
     /// soft targets from real people (ANSUR II statistics).
     #[arg(long)]
@@ -178,6 +186,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         inputs.sex = args.sex;
     }
     inputs.kept.extend(args.keep.iter().cloned());
+    inputs.ansur_survey |= args.ansur_survey;
     if inputs.readings.is_empty() {
         bail!("no measurements given: use --measure NAME=VALUE (e.g. stature=176.5cm) or --measurements FILE; `tapeshape predict --list` shows the names");
     }
@@ -284,9 +293,14 @@ fn print_report(r: &EstimateReport) -> std::io::Result<()> {
         .iter()
         .filter(|m| m.target_mm.is_some() && entered(&m.name))
     {
+        let name = if m.recorded_only {
+            format!("{} (recorded)", m.name)
+        } else {
+            m.name.clone()
+        };
         outln!(
             "{:<28} {:>9} {:>9} {:>9} {:>9} {:>8}",
-            m.name,
+            name,
             fmt_mm(m.target_mm),
             fmt_mm(m.start_mm),
             fmt_mm(m.step1_mm),

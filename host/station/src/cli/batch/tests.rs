@@ -175,3 +175,29 @@ fn repeated_and_unsafe_ids_are_refused() {
     assert!(why[0].contains("cannot name a file"), "{why:?}");
     assert!(why[1].contains("used by an earlier row"), "{why:?}");
 }
+
+#[test]
+fn a_survey_row_has_its_own_digest_and_a_plain_row_keeps_the_old_one() {
+    let rows = read_rows(SURVEY, "survey.csv").unwrap();
+    let plain = rows[0].inputs.as_ref().unwrap().clone();
+    let mut survey = plain.clone();
+    survey.ansur_survey = true;
+    let d = inputs_sha256(&plain, Some("m"));
+    // A resumed run with --ansur-survey must not skip rows done without it,
+    // nor the reverse.
+    assert_ne!(d, inputs_sha256(&survey, Some("m")));
+    // The plain digest is the one written before the flag existed: the
+    // fields as they were, in their order.
+    let mut h = Sha256::new();
+    for r in &plain.readings {
+        h.update(r.name.as_bytes());
+        h.update([0]);
+        h.update(r.value.metres.to_le_bytes());
+        h.update(r.value.unit.symbol().as_bytes());
+        h.update([u8::from(r.value.unit_typed)]);
+        h.update(r.tolerance.unwrap_or(-1.0).to_le_bytes());
+    }
+    h.update(b"m");
+    let old: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
+    assert_eq!(d, old);
+}
