@@ -201,16 +201,16 @@ impl std::fmt::Display for Warning {
                 measurements.join(", ")
             ),
             Self::RecordedNotFitted { measurements } => {
-                let (pronoun, takes) = if measurements.len() == 1 {
-                    ("it", "is")
+                let n = measurements.len();
+                let (readings, pronoun, kept) = if n == 1 {
+                    ("reading", "it", "the reading is")
                 } else {
-                    ("them", "are")
+                    ("readings", "them", "the readings are")
                 };
                 write!(
                     f,
-                    "recorded, not fitted: {}: the standing body model cannot take {pronoun} as ANSUR II defines {pronoun} (flexed girths, calipers that compress the tissue), so the body does not follow {pronoun}; {} kept in the report beside the body's own value",
-                    measurements.join(", "),
-                    if takes == "is" { "the reading is" } else { "the readings are" }
+                    "{n} {readings} recorded, not fitted: {}: the standing body model cannot take {pronoun} as ANSUR II defines {pronoun} (flexed girths, calipers that compress the tissue), so the body does not follow {pronoun}; {kept} kept in the report beside the body's own value",
+                    measurements.join(", ")
                 )
             }
             Self::Model(w) => w.fmt(f),

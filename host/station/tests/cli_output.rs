@@ -387,7 +387,7 @@ fn predict_records_a_survey_chest_breadth_without_fitting_it() {
     let (stdout, json, m) = chest_breadth(true);
     assert!(stdout.contains("chestbreadth (recorded)"), "{stdout}");
     assert!(
-        stdout.contains("recorded, not fitted: chestbreadth"),
+        stdout.contains("1 reading recorded, not fitted: chestbreadth"),
         "{stdout}"
     );
     assert_eq!(m["recorded_only"], true, "{m}");

@@ -486,9 +486,9 @@ warn-against-one-below = { $name } { $cm } cm liegt { $z } SD unter dem, was { $
 warn-against-others-below = { $name } { $cm } cm liegt { $z } SD unter dem, was { $others } vorhersagen ({ $mu } ± { $sd } cm)
 warn-unusual-set = ungewöhnliche Kombination von Maßen (Mahalanobis-Abstand { $distance } über { $n } Messwerte, { $percent } % der Population liegen näher am Mittel): das Ergebnis ist plausibel, aber bitte die Messwerte prüfen
 warn-estimated-with-kept = geschätzt mit ungewöhnlichen Messwerten, die der Bediener beibehalten hat ({ $names }): der Körper trifft sie, soweit eine menschlich aussehende Oberfläche es zulässt; Plausibilität der Maße: { $percent } % der Trainingspopulation liegen näher am Mittel (Mahalanobis-Abstand { $distance })
-warn-recorded-not-fitted = erfasst, nicht angepasst: { $names }: das stehende Körpermodell kann { $n ->
-    [one] dieses Maß nicht so nehmen, wie ANSUR II es definiert (gebeugte Umfänge, Tasterzirkel, der das Gewebe zusammendrückt), daher folgt der Körper ihm nicht; der Messwert steht im Bericht neben dem Wert des Körpers
-   *[other] diese Maße nicht so nehmen, wie ANSUR II sie definiert (gebeugte Umfänge, Tasterzirkel, der das Gewebe zusammendrückt), daher folgt der Körper ihnen nicht; die Messwerte stehen im Bericht neben den Werten des Körpers
+warn-recorded-not-fitted = { $n ->
+    [one] { $n } Messwert erfasst, nicht angepasst: { $names }: das stehende Körpermodell kann dieses Maß nicht so nehmen, wie ANSUR II es definiert (gebeugte Umfänge, Tasterzirkel, der das Gewebe zusammendrückt), daher folgt der Körper ihm nicht; der Messwert steht im Bericht neben dem Wert des Körpers
+   *[other] { $n } Messwerte erfasst, nicht angepasst: { $names }: das stehende Körpermodell kann diese Maße nicht so nehmen, wie ANSUR II sie definiert (gebeugte Umfänge, Tasterzirkel, der das Gewebe zusammendrückt), daher folgt der Körper ihnen nicht; die Messwerte stehen im Bericht neben den Werten des Körpers
 }
 warn-stage-step1 = Schritt 1
 warn-stage-step2 = Schritt 2

@@ -481,9 +481,9 @@ warn-against-one-below = { $name } { $cm } cm is { $z } SD below what { $others 
 warn-against-others-below = { $name } { $cm } cm is { $z } SD below what { $others } predict ({ $mu } +/- { $sd } cm)
 warn-unusual-set = unusual set of measurements (Mahalanobis distance { $distance } over { $n } readings, { $percent }% of the population is closer to the mean): the result is plausible but check the readings
 warn-estimated-with-kept = estimated with unusual readings the operator kept ({ $names }): the body fits them as far as a human-looking surface allows; the set's plausibility: { $percent }% of the training population is closer to the mean (Mahalanobis distance { $distance })
-warn-recorded-not-fitted = recorded, not fitted: { $names }: the standing body model cannot take { $n ->
-    [one] it as ANSUR II defines it (flexed girths, calipers that compress the tissue), so the body does not follow it; the reading is kept in the report beside the body's own value
-   *[other] them as ANSUR II defines them (flexed girths, calipers that compress the tissue), so the body does not follow them; the readings are kept in the report beside the body's own value
+warn-recorded-not-fitted = { $n ->
+    [one] { $n } reading recorded, not fitted: { $names }: the standing body model cannot take it as ANSUR II defines it (flexed girths, calipers that compress the tissue), so the body does not follow it; the reading is kept in the report beside the body's own value
+   *[other] { $n } readings recorded, not fitted: { $names }: the standing body model cannot take them as ANSUR II defines them (flexed girths, calipers that compress the tissue), so the body does not follow them; the readings are kept in the report beside the body's own value
 }
 warn-stage-step1 = step 1
 warn-stage-step2 = step 2
