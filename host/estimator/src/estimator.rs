@@ -323,7 +323,7 @@ impl Estimator {
         // there is one (else computed once per process), read on another
         // thread while step 1 runs (step 2 waits for it).
         let pending = self.begin_warm_up(options);
-        let p = std::thread::scope(|s| {
+        let mut p = std::thread::scope(|s| {
             if !pending.is_empty() {
                 s.spawn(move || pending.into_iter().for_each(|p| p.finish()));
             }
@@ -339,7 +339,6 @@ impl Estimator {
             ModelError::Cancelled(stage) => PredictError::Cancelled(stage),
             e => PredictError::Model(e),
         })?;
-        let mut p = p;
         for &(j, value, tolerance) in &recorded_only {
             let name = &self.set.definitions[j].name;
             let Some(m) = p.report.measurements.iter_mut().find(|m| &m.name == name) else {
