@@ -14,7 +14,7 @@ use tapeshape_model::{
 use crate::cache;
 use crate::checks::RealStats;
 use crate::file::{load_model_bytes, DEFAULT_MODEL};
-use crate::priors::CANNOT_FOLLOW_ANSUR;
+use crate::priors::{ANSUR_SUMS, CANNOT_FOLLOW_ANSUR};
 use crate::warning::Warning;
 use crate::{Estimate, EstimateReport, Inputs, ModelSummary, PredictError, PredictOptions};
 
@@ -231,6 +231,25 @@ impl Estimator {
             .is_some_and(|c| CANNOT_FOLLOW_ANSUR.contains(&c))
     }
 
+    /// Whether measurement `j` is an ANSUR II dimension that the mesh
+    /// measures as the sum of others ([`crate::priors::ANSUR_SUMS`]) and
+    /// every one of those parts is among `fitted` (indices of the set):
+    /// then the parts' indices, in the order of the sum. A survey's reading
+    /// of it is recorded, not fitted ([`Inputs::ansur_survey`]).
+    pub fn sum_of_given(&self, j: usize, fitted: &[usize]) -> Option<Vec<usize>> {
+        let column = self.set.definitions[j].ansur.as_deref()?;
+        let (_, parts) = ANSUR_SUMS.iter().find(|(sum, _)| *sum == column)?;
+        parts
+            .iter()
+            .map(|part| {
+                fitted
+                    .iter()
+                    .copied()
+                    .find(|&k| self.set.definitions[k].ansur.as_deref() == Some(*part))
+            })
+            .collect()
+    }
+
     fn names_of(&self, list: &[(usize, f64, Option<f64>)]) -> String {
         list.iter()
             .map(|&(j, _, _)| self.set.definitions[j].name.as_str())
@@ -290,6 +309,28 @@ impl Estimator {
                     .then_some((j, r.value.metres, r.tolerance))
             })
             .collect();
+        // A survey's reading that the mesh measures as the sum of other
+        // readings of the same survey (sleeve outseam = acromion-radiale +
+        // radiale-stylion on the mesh; ANSUR II's is 10 mm shorter on
+        // average, `priors::ANSUR_SUMS`): recorded, not fitted, so that
+        // the parts are met instead of all three missed by a compromise.
+        let mut recorded_only = recorded_only;
+        let mut recorded_sums: Vec<(usize, Vec<usize>)> = Vec::new();
+        if inputs.ansur_survey {
+            let fitted: Vec<usize> = inputs
+                .readings
+                .iter()
+                .map(|r| self.set.index_of(&r.name).expect("checked"))
+                .filter(|j| !recorded_only.iter().any(|&(k, _, _)| k == *j))
+                .collect();
+            for r in &inputs.readings {
+                let j = self.set.index_of(&r.name).expect("checked");
+                if let Some(parts) = self.sum_of_given(j, &fitted) {
+                    recorded_only.push((j, r.value.metres, r.tolerance));
+                    recorded_sums.push((j, parts));
+                }
+            }
+        }
         if recorded_only.len() == inputs.readings.len() {
             return Err(PredictError::Input(format!(
                 "{} cannot be fitted: the standing body model cannot take {} as ANSUR II defines {} \
@@ -349,11 +390,22 @@ impl Estimator {
             m.error_mm = m.step2_mm.map(|v| (v - value * 1000.0).abs());
             m.recorded_only = true;
         }
-        if !recorded_only.is_empty() {
+        let cannot: Vec<String> = recorded_only
+            .iter()
+            .filter(|&&(j, _, _)| !recorded_sums.iter().any(|(k, _)| *k == j))
+            .map(|&(j, _, _)| self.set.definitions[j].name.clone())
+            .collect();
+        if !cannot.is_empty() {
             warnings.push(Warning::RecordedNotFitted {
-                measurements: recorded_only
+                measurements: cannot,
+            });
+        }
+        for (j, parts) in &recorded_sums {
+            warnings.push(Warning::RecordedSumOfParts {
+                measurement: self.set.definitions[*j].name.clone(),
+                parts: parts
                     .iter()
-                    .map(|&(j, _, _)| self.set.definitions[j].name.clone())
+                    .map(|&k| self.set.definitions[k].name.clone())
                     .collect(),
             });
         }

@@ -166,6 +166,17 @@ pub enum Warning {
         /// The readings' names.
         measurements: Vec<String>,
     },
+    /// A survey's reading recorded but not fitted because the body measures
+    /// it as the sum of other readings of the survey, which are fitted
+    /// ([`crate::priors::ANSUR_SUMS`]: ANSUR II's sleeve outseam is 10 mm
+    /// shorter than its acromion-radiale plus radiale-stylion lengths on
+    /// average).
+    RecordedSumOfParts {
+        /// The reading's name.
+        measurement: String,
+        /// The readings whose sum it is on the body.
+        parts: Vec<String>,
+    },
     /// The model's own warning (its code is the model's).
     #[serde(untagged)]
     Model(tapeshape_model::Warning),
@@ -213,6 +224,11 @@ impl std::fmt::Display for Warning {
                     measurements.join(", ")
                 )
             }
+            Self::RecordedSumOfParts { measurement, parts } => write!(
+                f,
+                "{measurement} recorded, not fitted: on the body it is the sum of {}, which are fitted; ANSUR II takes it with another instrument and posture (about 10 mm shorter than that sum), so fitting all of them would ask the body for a contradiction; the reading is kept in the report beside the body's own value",
+                parts.join(" + ")
+            ),
             Self::Model(w) => w.fmt(f),
         }
     }
@@ -264,6 +280,13 @@ mod tests {
             Warning::RecordedNotFitted {
                 measurements: vec!["chestbreadth".into()],
             },
+            Warning::RecordedSumOfParts {
+                measurement: "sleeveoutseam".into(),
+                parts: vec![
+                    "acromionradialelength".into(),
+                    "radialestylionlength".into(),
+                ],
+            },
             Warning::Model(tapeshape_model::Warning::TrianglesChanged {
                 flipped: 2,
                 collapsed: 0,
@@ -276,6 +299,7 @@ mod tests {
         assert!(json.contains(r#""code":"kept-against-others""#), "{json}");
         assert!(json.contains(r#""code":"triangles-changed""#), "{json}");
         assert!(json.contains(r#""code":"recorded-not-fitted""#), "{json}");
+        assert!(json.contains(r#""code":"recorded-sum-of-parts""#), "{json}");
         let back: Holder = serde_json::from_str(&json).unwrap();
         assert_eq!(back.warnings, all);
         let old: Holder = serde_json::from_str(r#"{"warnings":["an old warning"]}"#).unwrap();

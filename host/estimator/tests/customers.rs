@@ -454,3 +454,95 @@ fn a_survey_caliper_chest_breadth_is_recorded_not_fitted() {
         "{err}"
     );
 }
+
+/// Issue 12, item 1: on the body the sleeve outseam (the quick set's
+/// `arm_length`, ANSUR II's `sleeveoutseam`) is the acromion-radiale length
+/// plus the radiale-stylion length, exactly; ANSUR II's is 10 mm shorter on
+/// average (`priors::ANSUR_SUMS`). A survey that gives all three has the
+/// sum recorded and the parts fitted; without its parts, or from the
+/// station, the arm length is fitted.
+#[test]
+fn a_survey_sleeve_outseam_with_its_parts_is_recorded_and_the_parts_met() {
+    let e = estimator();
+    let survey = |pairs: &[&str]| {
+        let mut i = entered(pairs);
+        i.ansur_survey = true;
+        i
+    };
+    let measured = |est: &tapeshape_estimator::Estimate, name: &str| {
+        est.report
+            .prediction
+            .measurements
+            .iter()
+            .find(|m| m.name == name)
+            .unwrap()
+            .clone()
+    };
+    let mut readings: Vec<&str> = MAN.to_vec();
+    readings.extend(["acromionradialelength=34cm", "radialestylionlength=27cm"]);
+    let est = e
+        .predict(&survey(&readings), &PredictOptions::default())
+        .unwrap();
+    // The premise: on the body the three are a sum, to rounding.
+    let v = |name: &str| measured(&est, name).step2_mm.unwrap();
+    let sum = v("acromionradialelength") + v("radialestylionlength");
+    assert!(
+        (v("arm_length") - sum).abs() < 1e-6,
+        "{} vs {sum}",
+        v("arm_length")
+    );
+    assert!((v("sleeveoutseam") - sum).abs() < 1e-6);
+
+    let arm = measured(&est, "arm_length");
+    assert!(arm.recorded_only, "{arm:?}");
+    assert_eq!(arm.target_mm, Some(600.0));
+    for (name, want) in [
+        ("acromionradialelength", 340.0),
+        ("radialestylionlength", 270.0),
+    ] {
+        let m = measured(&est, name);
+        assert!(!m.recorded_only);
+        assert!((v(name) - want).abs() < 2.0, "{name}: {} mm", v(name));
+    }
+    assert!(
+        est.report.warnings.iter().any(|w| matches!(
+            w,
+            tapeshape_estimator::Warning::RecordedSumOfParts { measurement, parts }
+                if measurement == "arm_length"
+                    && parts == &["acromionradialelength".to_string(), "radialestylionlength".to_string()]
+        )),
+        "{:?}",
+        est.report.warnings
+    );
+    // The flexed biceps is recorded for its own reason, in its own warning.
+    assert!(est.report.warnings.iter().any(|w| matches!(
+        w,
+        tapeshape_estimator::Warning::RecordedNotFitted { measurements }
+            if measurements == &["upper_arm".to_string()]
+    )));
+
+    // Without its parts the survey's arm length is the only one: fitted.
+    let alone = e
+        .predict(&survey(&MAN), &PredictOptions::default())
+        .unwrap();
+    let arm = measured(&alone, "arm_length");
+    assert!(!arm.recorded_only);
+    assert!(arm.error_mm.unwrap() < 2.0, "{arm:?}");
+    // One part alone is not a sum: fitted too.
+    let mut one = MAN.to_vec();
+    one.push("acromionradialelength=34cm");
+    let est = e
+        .predict(&survey(&one), &PredictOptions::default())
+        .unwrap();
+    assert!(!measured(&est, "arm_length").recorded_only);
+    // The station's readings (no survey): all fitted.
+    let station = e
+        .predict(&entered(&readings), &PredictOptions::default())
+        .unwrap();
+    assert!(!measured(&station, "arm_length").recorded_only);
+    assert!(!station
+        .report
+        .warnings
+        .iter()
+        .any(|w| matches!(w, tapeshape_estimator::Warning::RecordedSumOfParts { .. })));
+}

@@ -54,6 +54,10 @@ pub struct CustomersOptions {
 /// was recorded, not fitted.
 pub const RECORDED_SUFFIX: &str = " (recorded, not fitted)";
 
+/// A person missing this many fitted readings or more is listed by name on
+/// the page ([`markdown`]).
+pub const MANY_MISSES: usize = 5;
+
 /// One person's outcome.
 #[derive(Debug, Clone)]
 pub struct PersonResult {
@@ -610,8 +614,9 @@ ratio **{:.3}**; the worst of them {} at {:.2} x.\n",
         100.0 * iso,
         if per.keys().any(|k| k.ends_with(RECORDED_SUFFIX)) {
             " (the readings marked recorded, not fitted, are left out: the standing mesh \
-cannot take them as ANSUR II defines them, and the estimator does not fit them; their rows \
-below are for information)"
+cannot take them as ANSUR II defines them, or measures them as the sum of other readings \
+that ANSUR II takes differently, and the estimator does not fit them; their rows below are \
+for information)"
         } else {
             ""
         }
@@ -619,6 +624,47 @@ below are for information)"
     let _ = writeln!(s, "| measurement | within ISO | readings |\n|---|---|---|");
     for (k, (share, count)) in &per {
         let _ = writeln!(s, "| {k} | {:.1} % | {count} |", 100.0 * share);
+    }
+    // The people behind a share short of 100 %: one body that misses
+    // many readings reads very differently from many bodies missing one.
+    let mut missing: Vec<(&PersonResult, Vec<&str>)> = run
+        .people
+        .iter()
+        .map(|p| {
+            let misses = p
+                .entered
+                .iter()
+                .filter(|(j, _, ok)| !ok && !p.recorded_only.contains(j))
+                .map(|(j, _, _)| run.names[*j].as_str())
+                .collect::<Vec<_>>();
+            (p, misses)
+        })
+        .filter(|(_, m)| m.len() >= MANY_MISSES)
+        .collect();
+    missing.sort_by_key(|(p, m)| (std::cmp::Reverse(m.len()), p.id));
+    if !missing.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nPeople with {MANY_MISSES} or more fitted readings outside ISO 20685-1:\n\n\
+| subject | sex | readings outside | which | warnings (first clause) |\n|---|---|---|---|---|"
+        );
+        for (p, m) in &missing {
+            let _ = writeln!(
+                s,
+                "| {} | {:?} | {} | {} | {} |",
+                p.id,
+                p.sex,
+                m.len(),
+                m.join(", "),
+                // Each warning's first clause (what, not the advice).
+                p.warnings
+                    .iter()
+                    .map(|w| w.split(": ").next().unwrap_or(w))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+                    .replace('|', "/")
+            );
+        }
     }
     let flipped: usize = run.people.iter().map(|p| p.flipped).sum();
     let _ = writeln!(s, "\nFlipped triangles over all bodies: {flipped}.");

@@ -58,3 +58,43 @@ fn soft_targets_lower_the_unmeasured_error_and_readings_stay_within_iso() {
     );
     assert_eq!(with.dims.len(), 35, "the other ansur dimensions");
 }
+
+/// The `ansur` half of the second point, reduced: the first 6 test-split
+/// men and 6 women with all 44 of their real `ansur` values as survey
+/// values (`--ansur-survey`). The four dimensions the standing mesh cannot
+/// take as ANSUR II does, and the sleeve outseam (on the body the sum of
+/// the two arm segments, which are given too), are recorded, not fitted;
+/// the rest is met within ISO 20685-1 on at least 99 % of the readings (the
+/// issue's target). Fitting the three arm lengths together missed the
+/// acromion-radiale length on 40 % of people: here it is met on everyone.
+#[test]
+fn an_ansur_survey_is_met_within_iso_with_the_sleeve_outseam_recorded() {
+    let estimator = Estimator::default_model().expect("embedded model");
+    let opts = CustomersOptions {
+        input_set: "ansur".into(),
+        with_sex: true,
+        per_sex: Some(6),
+        leave_out: Vec::new(),
+        ansur_survey: true,
+        options: PredictOptions::default(),
+    };
+    let r = run(estimator, &opts).expect("ansur survey run");
+    assert_eq!(r.people.len(), 12);
+    assert_eq!(r.refused(), 0);
+    let (iso, per) = r.iso_pass();
+    assert!(iso >= 0.99, "ansur survey within ISO: {iso}: {per:?}");
+    let sleeve = r.names.iter().position(|n| n == "sleeveoutseam").unwrap();
+    for p in &r.people {
+        assert!(
+            p.recorded_only.contains(&sleeve),
+            "subject {}: sleeve outseam fitted",
+            p.id
+        );
+        assert_eq!(p.recorded_only.len(), 5, "subject {}", p.id);
+    }
+    for arm in ["acromionradialelength", "radialestylionlength"] {
+        let (share, n) = per[arm];
+        assert_eq!(n, 12);
+        assert!(share >= 1.0 - 1e-12, "{arm}: {share}");
+    }
+}

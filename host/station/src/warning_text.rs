@@ -68,6 +68,11 @@ pub fn warning_text_in(lang: Lang, w: &Warning) -> String {
             a.set("n", measurements.len());
             t(msg!("warn-recorded-not-fitted"), &a)
         }
+        Warning::RecordedSumOfParts { measurement, parts } => {
+            a.set("name", measurement.as_str());
+            a.set("parts", parts.join(" + "));
+            t(msg!("warn-recorded-sum-of-parts"), &a)
+        }
         Warning::Model(m) => model_warning(lang, m),
     }
 }
@@ -344,6 +349,13 @@ mod tests {
             },
             Warning::RecordedNotFitted {
                 measurements: vec!["chestbreadth".into(), "bicristalbreadth".into()],
+            },
+            Warning::RecordedSumOfParts {
+                measurement: "sleeveoutseam".into(),
+                parts: vec![
+                    "acromionradialelength".into(),
+                    "radialestylionlength".into(),
+                ],
             },
             Warning::Model(ModelWarning::SolverStopped {
                 stage: PredictStage::Step2,

@@ -490,6 +490,7 @@ warn-recorded-not-fitted = { $n ->
     [one] { $n } Messwert erfasst, nicht angepasst: { $names }: das stehende Körpermodell kann dieses Maß nicht so nehmen, wie ANSUR II es definiert (gebeugte Umfänge, Tasterzirkel, der das Gewebe zusammendrückt), daher folgt der Körper ihm nicht; der Messwert steht im Bericht neben dem Wert des Körpers
    *[other] { $n } Messwerte erfasst, nicht angepasst: { $names }: das stehende Körpermodell kann diese Maße nicht so nehmen, wie ANSUR II sie definiert (gebeugte Umfänge, Tasterzirkel, der das Gewebe zusammendrückt), daher folgt der Körper ihnen nicht; die Messwerte stehen im Bericht neben den Werten des Körpers
 }
+warn-recorded-sum-of-parts = { $name } erfasst, nicht angepasst: am Körper ist es die Summe aus { $parts }, die angepasst werden; ANSUR II nimmt es mit einem anderen Instrument und in anderer Haltung (im Mittel etwa 10 mm kürzer als diese Summe), alle zusammen anzupassen verlangte vom Körper einen Widerspruch; der Messwert steht im Bericht neben dem Wert des Körpers
 warn-stage-step1 = Schritt 1
 warn-stage-step2 = Schritt 2
 warn-solver-stopped = { $stage }, Runde { $round }: Optimierer angehalten: { $reason }

@@ -485,6 +485,7 @@ warn-recorded-not-fitted = { $n ->
     [one] { $n } reading recorded, not fitted: { $names }: the standing body model cannot take it as ANSUR II defines it (flexed girths, calipers that compress the tissue), so the body does not follow it; the reading is kept in the report beside the body's own value
    *[other] { $n } readings recorded, not fitted: { $names }: the standing body model cannot take them as ANSUR II defines them (flexed girths, calipers that compress the tissue), so the body does not follow them; the readings are kept in the report beside the body's own value
 }
+warn-recorded-sum-of-parts = { $name } recorded, not fitted: on the body it is the sum of { $parts }, which are fitted; ANSUR II takes it with another instrument and posture (about 10 mm shorter than that sum), so fitting all of them would ask the body for a contradiction; the reading is kept in the report beside the body's own value
 warn-stage-step1 = step 1
 warn-stage-step2 = step 2
 warn-solver-stopped = { $stage } round { $round }: optimiser stopped: { $reason }

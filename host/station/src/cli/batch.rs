@@ -83,7 +83,9 @@ pub struct Args {
     /// that compress the tissue, flexed girths), as in ANSUR data: readings
     /// of the dimensions the standing body cannot take that way (chest and
     /// bicristal breadth, flexed biceps and forearm girths) are then
-    /// recorded in each report, not fitted.
+    /// recorded in each report, not fitted; so is the sleeve outseam (arm length)
+    /// when the acromion-radiale and radiale-stylion lengths are given too
+    /// (on the body it is their sum; ANSUR's is about 10 mm shorter).
     #[arg(long)]
     pub ansur_survey: bool,
 }
