@@ -86,8 +86,9 @@ pub const CANNOT_FOLLOW_ANSUR: &[&str] = &[
 /// calipers parallel to the arm segments with the palms to the thighs), and
 /// its sleeve outseam is shorter than the sum of its two segment lengths:
 /// by 10.0 mm for men (SD 8.5, 3,064 train-split subjects) and 9.1 mm for
-/// women (SD 8.1, 1,499), shorter for 88 % of them. A survey that gives
-/// all three asks the body for a contradiction; fitting it missed the
+/// women (SD 8.1, 1,499), shorter for 88 % of the men and 87 % of the
+/// women. A survey that gives all three asks the body for a
+/// contradiction; fitting it missed the
 /// acromion-radiale length by more than ISO 20685-1 allows on 40 % of the
 /// ANSUR II test split (docs/results/real-customers.md). So a survey's
 /// reading of the sum is recorded, not fitted, when every part is given
