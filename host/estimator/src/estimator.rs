@@ -299,7 +299,7 @@ impl Estimator {
         // and recorded, and inform the real-people soft targets below (as
         // ANSUR's own quantity), but get no target: fitting the mesh's
         // different quantity to them folds the body (docs/measurements.md).
-        let recorded_only: Vec<(usize, f64, Option<f64>)> = inputs
+        let mut recorded_only: Vec<(usize, f64, Option<f64>)> = inputs
             .readings
             .iter()
             .filter(|_| inputs.ansur_survey)
@@ -314,7 +314,6 @@ impl Estimator {
         // radiale-stylion on the mesh; ANSUR II's is 10 mm shorter on
         // average, `priors::ANSUR_SUMS`): recorded, not fitted, so that
         // the parts are met instead of all three missed by a compromise.
-        let mut recorded_only = recorded_only;
         let mut recorded_sums: Vec<(usize, Vec<usize>)> = Vec::new();
         if inputs.ansur_survey {
             let fitted: Vec<usize> = inputs

@@ -21,6 +21,25 @@ fn entered(pairs: &[&str]) -> Inputs {
     i
 }
 
+/// `pairs` as survey values taken as ANSUR II takes them
+/// (`Inputs::ansur_survey`).
+fn surveyed(pairs: &[&str]) -> Inputs {
+    let mut i = entered(pairs);
+    i.ansur_survey = true;
+    i
+}
+
+/// The report's entry for measurement `name` of an estimate.
+fn measured(est: &tapeshape_estimator::Estimate, name: &str) -> tapeshape_model::MeasurementReport {
+    est.report
+        .prediction
+        .measurements
+        .iter()
+        .find(|m| m.name == name)
+        .unwrap()
+        .clone()
+}
+
 /// A typical man's quick readings.
 const MAN: [&str; 9] = [
     "stature=176cm",
@@ -365,11 +384,6 @@ fn an_unmeasured_neck_comes_out_where_real_people_have_it() {
 #[test]
 fn a_survey_caliper_chest_breadth_is_recorded_not_fitted() {
     let e = estimator();
-    let survey = |pairs: &[&str]| {
-        let mut i = entered(pairs);
-        i.ansur_survey = true;
-        i
-    };
     let mut readings: Vec<&str> = MAN.to_vec();
     readings.push("chestbreadth=33cm");
     // The model alone (no soft targets): the body is exactly the one of the
@@ -378,28 +392,20 @@ fn a_survey_caliper_chest_breadth_is_recorded_not_fitted() {
         real_people: Some(None),
         ..Default::default()
     };
-    let with_breadth = e.predict(&survey(&readings), &alone).unwrap();
-    let without = e.predict(&survey(&MAN), &alone).unwrap();
+    let with_breadth = e.predict(&surveyed(&readings), &alone).unwrap();
+    let without = e.predict(&surveyed(&MAN), &alone).unwrap();
     assert_eq!(with_breadth.mesh.vertices, without.mesh.vertices);
 
     let est = e
-        .predict(&survey(&readings), &PredictOptions::default())
+        .predict(&surveyed(&readings), &PredictOptions::default())
         .unwrap();
-    let report = |r: &tapeshape_estimator::EstimateReport, name: &str| {
-        r.prediction
-            .measurements
-            .iter()
-            .find(|m| m.name == name)
-            .unwrap()
-            .clone()
-    };
-    let m = report(&est.report, "chestbreadth");
+    let m = measured(&est, "chestbreadth");
     assert!(m.recorded_only, "{m:?}");
     assert_eq!(m.target_mm, Some(330.0));
     let body = m.step2_mm.expect("measured on the body");
     assert!((m.error_mm.unwrap() - (body - 330.0).abs()).abs() < 1e-9);
-    assert!(report(&est.report, "upper_arm").recorded_only);
-    assert!(!report(&est.report, "chest").recorded_only);
+    assert!(measured(&est, "upper_arm").recorded_only);
+    assert!(!measured(&est, "chest").recorded_only);
     assert!(
         est.report.inputs.iter().any(|c| c.name == "chestbreadth"),
         "the reading keeps its checks"
@@ -424,7 +430,7 @@ fn a_survey_caliper_chest_breadth_is_recorded_not_fitted() {
     // Real people's chest breadth is ANSUR's own quantity: it still moves
     // what they predict for the unmeasured.
     let typical = e
-        .predict(&survey(&MAN), &PredictOptions::default())
+        .predict(&surveyed(&MAN), &PredictOptions::default())
         .unwrap();
     assert_ne!(
         est.report.soft_targets, typical.report.soft_targets,
@@ -435,7 +441,7 @@ fn a_survey_caliper_chest_breadth_is_recorded_not_fitted() {
     let station = e
         .predict(&entered(&readings), &PredictOptions::default())
         .unwrap();
-    let m = report(&station.report, "chestbreadth");
+    let m = measured(&station, "chestbreadth");
     assert!(!m.recorded_only);
     assert!(m.error_mm.unwrap() < 2.0, "{m:?}");
     assert!(!station
@@ -446,7 +452,10 @@ fn a_survey_caliper_chest_breadth_is_recorded_not_fitted() {
 
     // Given alone, there is nothing to fit: refused, saying what to do.
     let err = e
-        .predict(&survey(&["chestbreadth=33cm"]), &PredictOptions::default())
+        .predict(
+            &surveyed(&["chestbreadth=33cm"]),
+            &PredictOptions::default(),
+        )
         .unwrap_err();
     assert!(
         err.to_string()
@@ -464,24 +473,10 @@ fn a_survey_caliper_chest_breadth_is_recorded_not_fitted() {
 #[test]
 fn a_survey_sleeve_outseam_with_its_parts_is_recorded_and_the_parts_met() {
     let e = estimator();
-    let survey = |pairs: &[&str]| {
-        let mut i = entered(pairs);
-        i.ansur_survey = true;
-        i
-    };
-    let measured = |est: &tapeshape_estimator::Estimate, name: &str| {
-        est.report
-            .prediction
-            .measurements
-            .iter()
-            .find(|m| m.name == name)
-            .unwrap()
-            .clone()
-    };
     let mut readings: Vec<&str> = MAN.to_vec();
     readings.extend(["acromionradialelength=34cm", "radialestylionlength=27cm"]);
     let est = e
-        .predict(&survey(&readings), &PredictOptions::default())
+        .predict(&surveyed(&readings), &PredictOptions::default())
         .unwrap();
     // The premise: on the body the three are a sum, to rounding.
     let v = |name: &str| measured(&est, name).step2_mm.unwrap();
@@ -523,7 +518,7 @@ fn a_survey_sleeve_outseam_with_its_parts_is_recorded_and_the_parts_met() {
 
     // Without its parts the survey's arm length is the only one: fitted.
     let alone = e
-        .predict(&survey(&MAN), &PredictOptions::default())
+        .predict(&surveyed(&MAN), &PredictOptions::default())
         .unwrap();
     let arm = measured(&alone, "arm_length");
     assert!(!arm.recorded_only);
@@ -532,7 +527,7 @@ fn a_survey_sleeve_outseam_with_its_parts_is_recorded_and_the_parts_met() {
     let mut one = MAN.to_vec();
     one.push("acromionradialelength=34cm");
     let est = e
-        .predict(&survey(&one), &PredictOptions::default())
+        .predict(&surveyed(&one), &PredictOptions::default())
         .unwrap();
     assert!(!measured(&est, "arm_length").recorded_only);
     // The station's readings (no survey): all fitted.
