@@ -132,11 +132,13 @@ pub struct Step2Settings {
     /// reading ends within its threshold (the continuation's share of its
     /// ISO 20685-1 allowable error, at least its tolerance; the whole
     /// allowable error without continuation) and step 2 did not have to
-    /// fall back to an earlier shape; otherwise `solver` runs from the
-    /// step-1 shape as if the first had not been tried. Why: the smooth
-    /// basis solves a few readings' step 2 in a tenth of L-BFGS's time but
-    /// misses many real readings that L-BFGS meets
-    /// (`docs/results/predict-bench.md`).
+    /// fall back to an earlier shape; otherwise `solver` minimises the same
+    /// objective starting from the first solver's body (from the step-1
+    /// shape where that fell back). Why: the smooth basis solves a few
+    /// readings' step 2 in a tenth of L-BFGS's time but misses many real
+    /// readings that L-BFGS meets (`docs/results/predict-bench.md`); where
+    /// it misses, L-BFGS from its body meets more readings and folds less
+    /// than from the step-1 shape (`docs/results/real-customers.md`).
     pub first: Option<Step2Solver>,
 }
 
