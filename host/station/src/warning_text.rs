@@ -161,6 +161,11 @@ fn model_warning(lang: Lang, w: &ModelWarning) -> String {
             a.set("collapsed", *collapsed);
             t(msg!("warn-triangles"), &a)
         }
+        ModelWarning::FoldsSmoothed { folded, left } => {
+            a.set("folded", *folded);
+            a.set("left", *left);
+            t(msg!("warn-folds-smoothed"), &a)
+        }
         ModelWarning::FarFromPopulation {
             mahalanobis,
             readings,
@@ -390,6 +395,7 @@ mod tests {
                 flipped: 3,
                 collapsed: 1,
             }),
+            Warning::Model(ModelWarning::FoldsSmoothed { folded: 9, left: 2 }),
             Warning::Model(ModelWarning::FarFromPopulation {
                 mahalanobis: 11.26,
                 readings: 4,

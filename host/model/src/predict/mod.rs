@@ -33,6 +33,7 @@
 //! the load, since every budget counts work, not time.
 
 pub mod clamp;
+mod folds;
 mod measurer;
 pub mod progress;
 pub mod readings;

@@ -34,10 +34,19 @@
 //! step-1 shape (`docs/results/real-customers.md`). A first body that fell
 //! back to an earlier shape is no start: the solver then starts from the
 //! step-1 shape.
+//!
+//! Last, the fold repair ([`super::Step2Settings::fold_repair`],
+//! `predict/folds.rs`): where the body folds triangles of the step-1 shape,
+//! their neighbourhood's displacement is smoothed, the landmarks of
+//! straight readings held, and kept where no reading within its allowable
+//! error falls out. On the 50 people above: 108 folded triangles -> 46,
+//! 99.7 % of the readings within ISO 20685-1 either way; on all 1,505,
+//! 4,466 -> 2,595, 99.6 % either way.
 
 use tapeshape_measure::Measured;
 use tapeshape_mesh::{Topology, Vec3};
 
+use super::folds;
 use super::progress::{in_run, in_run_every, PredictObserver, PredictProgress, PredictStage};
 use super::readings::Readings;
 use super::rounds::{run_rounds, thresholds, RoundEnd, RoundLog, RoundStep, RoundsSummary};
@@ -250,6 +259,13 @@ impl RoundStep for Step2Rounds<'_> {
     }
 }
 
+/// How many times the fold repair starts again with more supports held.
+const FOLD_REPAIR_ATTEMPTS: usize = 3;
+
+/// The allowable error (mm) of a reading whose measurer does not know its
+/// own (as [`super::Continuation`]'s default).
+const FOLD_REPAIR_DEFAULT_MM: f64 = 4.0;
+
 impl ShapeModel {
     /// Step 2 from `step1` (see the module docs) on the template
     /// `topology`: `rounds.s` rounds (and continuation rounds) over the
@@ -260,6 +276,104 @@ impl ShapeModel {
     /// is a warning.
     #[allow(clippy::too_many_arguments)]
     pub fn step2(
+        &self,
+        readings: &Readings,
+        step1: &Step1Shape,
+        config: &Step2Config,
+        rounds: &RoundsConfig,
+        measurer: &dyn Measurer,
+        topology: &Topology,
+        observer: &dyn PredictObserver,
+    ) -> Result<Step2Shape> {
+        let shape = self.step2_solved(
+            readings, step1, config, rounds, measurer, topology, observer,
+        )?;
+        if !config.fold_repair {
+            return Ok(shape);
+        }
+        self.repair_folds(shape, readings, step1, measurer, topology)
+    }
+
+    /// The fold repair ([`super::Step2Settings::fold_repair`]): smooths the
+    /// folded triangles' neighbourhood of `shape`, the landmarks of
+    /// straight readings held, and keeps the result where it folds fewer
+    /// triangles and every reading within its allowable error stays within
+    /// it (the readings measured again on it). A reading that the smoothing
+    /// pushed out has its support held too, and the smoothing starts again
+    /// from `shape`, at most [`FOLD_REPAIR_ATTEMPTS`] times.
+    fn repair_folds(
+        &self,
+        mut shape: Step2Shape,
+        readings: &Readings,
+        step1: &Step1Shape,
+        measurer: &dyn Measurer,
+        topology: &Topology,
+    ) -> Result<Step2Shape> {
+        if folds::folded_faces(topology, &step1.vertices, &shape.vertices).is_empty() {
+            return Ok(shape);
+        }
+        let hold = |pinned: &mut [bool], m: &Measured| {
+            for p in &m.support.points {
+                pinned[p.a as usize] = true;
+                pinned[p.b as usize] = true;
+            }
+        };
+        // A straight reading's value is its landmarks' positions: they
+        // stay. A girth's hull or a path's route is found again on the
+        // smoothed body.
+        let mut pinned = vec![false; topology.n_vertices()];
+        for m in shape
+            .measured
+            .iter()
+            .filter(|m| m.support.segments.len() <= 1)
+        {
+            hold(&mut pinned, m);
+        }
+        let within = |m: &[Measured]| -> Vec<bool> {
+            readings
+                .iter()
+                .zip(m)
+                .map(|(g, m)| {
+                    let allowable = measurer
+                        .allowable_error(g.index)
+                        .map_or(FOLD_REPAIR_DEFAULT_MM, |a| a * MM_PER_M);
+                    (m.value * MM_PER_M - g.target_mm).abs() <= allowable
+                })
+                .collect()
+        };
+        let met = within(&shape.measured);
+        for _ in 0..FOLD_REPAIR_ATTEMPTS {
+            let mut x = shape.vertices.clone();
+            let (folded, left) = folds::smooth_folds(topology, &step1.vertices, &mut x, &pinned);
+            if left >= folded {
+                break;
+            }
+            let measured = self.measure_checked(measurer, &x, &readings.indices())?;
+            let lost: Vec<usize> = within(&measured)
+                .iter()
+                .zip(&met)
+                .enumerate()
+                .filter(|(_, (now, before))| **before && !**now)
+                .map(|(i, _)| i)
+                .collect();
+            if lost.is_empty() {
+                shape.measured = measured;
+                shape.vertices = x;
+                shape.warnings.push(Warning::FoldsSmoothed { folded, left });
+                break;
+            }
+            for i in lost {
+                hold(&mut pinned, &shape.measured[i]);
+                hold(&mut pinned, &measured[i]);
+            }
+        }
+        Ok(shape)
+    }
+
+    /// Step 2 without the fold repair: the first solver, then the solver
+    /// where it missed (see the module docs).
+    #[allow(clippy::too_many_arguments)]
+    fn step2_solved(
         &self,
         readings: &Readings,
         step1: &Step1Shape,

@@ -81,6 +81,16 @@ pub enum Warning {
         /// Triangles collapsed to (near) zero area.
         collapsed: usize,
     },
+    /// Step 2 folded `folded` triangles of the step-1 shape and their
+    /// neighbourhood was smoothed, which left `left` folded (see
+    /// [`super::Step2Settings::fold_repair`]); the readings were measured
+    /// again on the smoothed body.
+    FoldsSmoothed {
+        /// Triangles step 2 had flipped or collapsed.
+        folded: usize,
+        /// Triangles still flipped or collapsed after smoothing.
+        left: usize,
+    },
     /// The readings are far from the training population: the shape is
     /// held to `held_sd` standard deviations and may not fit them all.
     FarFromPopulation {
@@ -152,6 +162,10 @@ impl std::fmt::Display for Warning {
             Self::TrianglesChanged { flipped, collapsed } => write!(
                 f,
                 "step 2 flipped {flipped} and collapsed {collapsed} triangles: the measurements may be inconsistent"
+            ),
+            Self::FoldsSmoothed { folded, left } => write!(
+                f,
+                "step 2 folded {folded} triangles of the surface: smoothed them out, {left} left"
             ),
             Self::FarFromPopulation {
                 mahalanobis,

@@ -24,6 +24,9 @@ struct Step2Wire {
     stop: Option<StopRule>,
     #[serde(default)]
     first: Option<Step2Solver>,
+    /// Reports before the fold repair ran without it.
+    #[serde(default)]
+    fold_repair: bool,
 }
 
 impl<'de> Deserialize<'de> for Step2Settings {
@@ -40,6 +43,7 @@ impl<'de> Deserialize<'de> for Step2Settings {
             weighting: w.weighting,
             solver,
             first: w.first,
+            fold_repair: w.fold_repair,
         })
     }
 }
@@ -136,6 +140,7 @@ impl From<FlatWire> for PredictSettings {
                 },
                 solver: Step2Solver::Lbfgs { stop: f.step2_stop },
                 first: None,
+                fold_repair: false,
             },
             continuation: f.continuation,
             warn_error_mm: f.warn_error_mm,

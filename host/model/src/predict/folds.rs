@@ -1,0 +1,193 @@
+//! Folds on step 2's body, and smoothing them out
+//! ([`super::Step2Settings::fold_repair`]).
+//!
+//! A triangle is *folded* when its normal turned by more than 90 degrees
+//! from the step-1 shape's (flipped) or its area fell below 1 % of it
+//! (collapsed), as [`super::triangle_changes`] counts them. Step 2's
+//! membrane term lets a reading pull a few vertices through their
+//! neighbours where the template's surface cannot follow it (the crotch,
+//! the navel, the armpits); the repair gives each free vertex of the folded
+//! triangles' neighbourhood the mean displacement of its neighbours (a
+//! Jacobi step of the displacement's Laplace equation, the region's border
+//! and the pinned vertices held), a few rounds at a time, the region
+//! growing by a ring when it does not settle. Written here because it is a
+//! dozen lines over the template's own edges; no mesh crate has it.
+
+use tapeshape_mesh::{Topology, Vec3};
+
+/// Rings of neighbours around the folded triangles smoothed from the start.
+pub(crate) const REPAIR_RINGS: usize = 2;
+
+/// Smoothing rounds at most.
+pub(crate) const REPAIR_ROUNDS: usize = 60;
+
+/// The region grows by a ring every this many rounds.
+pub(crate) const REPAIR_GROW_EVERY: usize = 20;
+
+/// The faces (indices into `topology.faces()`) of `after` flipped or
+/// collapsed against `before` (both V vertices, the same unit).
+pub(crate) fn folded_faces(topology: &Topology, before: &[Vec3], after: &[Vec3]) -> Vec<usize> {
+    let normal = |p: &[Vec3], f: &[u32; 3]| {
+        let [a, b, c] = f.map(|i| p[i as usize]);
+        let (u, v) = (sub(b, a), sub(c, a));
+        [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ]
+    };
+    topology
+        .faces()
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| {
+            let (n0, n1) = (normal(before, f), normal(after, f));
+            let dot = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
+            dot < 0.0 || norm2(n1).sqrt() < 0.01 * norm2(n0).sqrt()
+        })
+        .map(|(i, _)| i)
+        .collect()
+}
+
+/// Smooths the displacement `x - reference` around the folded triangles
+/// of `x` (both V vertices, the same unit; `x` is changed in place), the
+/// vertices with `pinned[v]` held. Returns how many triangles were folded
+/// before and after.
+pub(crate) fn smooth_folds(
+    topology: &Topology,
+    reference: &[Vec3],
+    x: &mut [Vec3],
+    pinned: &[bool],
+) -> (usize, usize) {
+    let n = topology.n_vertices();
+    let mut folded = folded_faces(topology, reference, x);
+    let before = folded.len();
+    if before == 0 {
+        return (0, 0);
+    }
+    let mut neighbours = vec![Vec::new(); n];
+    for &[a, b] in topology.edges() {
+        neighbours[a as usize].push(b as usize);
+        neighbours[b as usize].push(a as usize);
+    }
+    for round in 0..REPAIR_ROUNDS {
+        if folded.is_empty() {
+            break;
+        }
+        let mut free = vec![false; n];
+        for &f in &folded {
+            for v in topology.faces()[f] {
+                free[v as usize] = true;
+            }
+        }
+        for _ in 0..REPAIR_RINGS + round / REPAIR_GROW_EVERY {
+            let ring: Vec<usize> = (0..n)
+                .filter(|&v| !free[v] && neighbours[v].iter().any(|&w| free[w]))
+                .collect();
+            ring.into_iter().for_each(|v| free[v] = true);
+        }
+        // In place (Gauss-Seidel order): each vertex sees the neighbours
+        // already moved this round.
+        for v in (0..n).filter(|&v| free[v] && !pinned[v] && !neighbours[v].is_empty()) {
+            let k = neighbours[v].len() as f64;
+            let mut d = [0.0; 3];
+            for &w in &neighbours[v] {
+                for c in 0..3 {
+                    d[c] += (x[w][c] - reference[w][c]) / k;
+                }
+            }
+            for c in 0..3 {
+                x[v][c] = reference[v][c] + d[c];
+            }
+        }
+        folded = folded_faces(topology, reference, x);
+    }
+    (before, folded.len())
+}
+
+fn sub(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn norm2(a: Vec3) -> f64 {
+    a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A flat n x n grid in the z = 0 plane, spacing 1, two triangles per
+    /// cell (counter-clockwise seen from +z).
+    fn grid(n: usize) -> (Topology, Vec<Vec3>) {
+        let id = |i: usize, j: usize| (i * n + j) as u32;
+        let mut faces = Vec::new();
+        for i in 0..n - 1 {
+            for j in 0..n - 1 {
+                faces.push([id(i, j), id(i, j + 1), id(i + 1, j + 1)]);
+                faces.push([id(i, j), id(i + 1, j + 1), id(i + 1, j)]);
+            }
+        }
+        let points = (0..n * n)
+            .map(|k| [(k % n) as f64, (k / n) as f64, 0.0])
+            .collect();
+        (Topology::new(n * n, faces).unwrap(), points)
+    }
+
+    #[test]
+    fn a_vertex_pushed_through_its_neighbours_is_smoothed_back() {
+        let (topo, reference) = grid(9);
+        let mut x = reference.clone();
+        // A smooth bump everywhere, then one vertex pulled 1.6 spacings
+        // sideways, past its neighbours: its ring folds.
+        for p in x.iter_mut() {
+            p[2] = 0.1 * (p[0] * 0.3).sin();
+        }
+        let centre = 4 * 9 + 4;
+        x[centre][0] += 1.6;
+        let folded = folded_faces(&topo, &reference, &x).len();
+        assert!(folded > 0);
+        let bump: Vec<Vec3> = x.clone();
+        let (before, after) = smooth_folds(&topo, &reference, &mut x, &[false; 81]);
+        assert_eq!((before, after), (folded, 0));
+        // Only the neighbourhood moved: the grid's border is untouched.
+        for v in [0, 8, 72, 80, 40 - 4] {
+            assert_eq!(x[v], bump[v], "vertex {v}");
+        }
+    }
+
+    #[test]
+    fn pinned_vertices_stay_and_a_body_without_folds_is_unchanged() {
+        let (topo, reference) = grid(9);
+        let mut x = reference.clone();
+        let centre = 4 * 9 + 4;
+        x[centre][0] += 1.6;
+        let mut pinned = vec![false; 81];
+        pinned[centre] = true;
+        let moved = x[centre];
+        let (before, after) = smooth_folds(&topo, &reference, &mut x, &pinned);
+        assert!(before > 0);
+        assert_eq!(x[centre], moved);
+        // The neighbours follow the pinned vertex far enough to unfold.
+        assert_eq!(after, 0);
+
+        let mut flat = reference.clone();
+        flat.iter_mut().for_each(|p| p[2] += 0.5);
+        let copy = flat.clone();
+        assert_eq!(smooth_folds(&topo, &reference, &mut flat, &pinned), (0, 0));
+        assert_eq!(flat, copy);
+    }
+
+    #[test]
+    fn folds_counts_flipped_and_collapsed_triangles_like_the_report() {
+        let (topo, reference) = grid(5);
+        let mut x = reference.clone();
+        x[12][0] += 1.6;
+        let (flipped, collapsed) = super::super::triangle_changes(&topo, &reference, &x);
+        assert_eq!(
+            folded_faces(&topo, &reference, &x).len(),
+            flipped + collapsed
+        );
+        assert!(flipped > 0);
+    }
+}
