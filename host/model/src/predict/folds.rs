@@ -13,6 +13,7 @@
 //! growing by a ring when it does not settle. Written here because it is a
 //! dozen lines over the template's own edges; no mesh crate has it.
 
+use tapeshape_mesh::vec3::{dot, norm, triangle_normal};
 use tapeshape_mesh::{Topology, Vec3};
 
 /// Rings of neighbours around the folded triangles smoothed from the start.
@@ -24,27 +25,37 @@ pub(crate) const REPAIR_ROUNDS: usize = 60;
 /// The region grows by a ring every this many rounds.
 pub(crate) const REPAIR_GROW_EVERY: usize = 20;
 
+/// How a triangle of the template changed from `before` to `after`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Fold {
+    /// Its normal turned by more than 90 degrees.
+    Flipped,
+    /// Its area fell below 1 % of what it was.
+    Collapsed,
+}
+
+/// Whether face `f` (vertex indices) of `after` is folded against
+/// `before` (both V vertices, the same unit), and how.
+pub(crate) fn fold_of(before: &[Vec3], after: &[Vec3], f: &[u32; 3]) -> Option<Fold> {
+    let normal = |p: &[Vec3]| triangle_normal(p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]);
+    let (n0, n1) = (normal(before), normal(after));
+    if dot(n0, n1) < 0.0 {
+        Some(Fold::Flipped)
+    } else if norm(n1) < 0.01 * norm(n0) {
+        Some(Fold::Collapsed)
+    } else {
+        None
+    }
+}
+
 /// The faces (indices into `topology.faces()`) of `after` flipped or
 /// collapsed against `before` (both V vertices, the same unit).
 pub(crate) fn folded_faces(topology: &Topology, before: &[Vec3], after: &[Vec3]) -> Vec<usize> {
-    let normal = |p: &[Vec3], f: &[u32; 3]| {
-        let [a, b, c] = f.map(|i| p[i as usize]);
-        let (u, v) = (sub(b, a), sub(c, a));
-        [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ]
-    };
     topology
         .faces()
         .iter()
         .enumerate()
-        .filter(|(_, f)| {
-            let (n0, n1) = (normal(before, f), normal(after, f));
-            let dot = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
-            dot < 0.0 || norm2(n1).sqrt() < 0.01 * norm2(n0).sqrt()
-        })
+        .filter(|(_, f)| fold_of(before, after, f).is_some())
         .map(|(i, _)| i)
         .collect()
 }
@@ -103,14 +114,6 @@ pub(crate) fn smooth_folds(
         folded = folded_faces(topology, reference, x);
     }
     (before, folded.len())
-}
-
-fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn norm2(a: Vec3) -> f64 {
-    a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
 }
 
 #[cfg(test)]

@@ -5,9 +5,9 @@
 
 use std::time::Duration;
 
-use tapeshape_mesh::vec3::{dot, norm, triangle_normal};
 use tapeshape_mesh::{Topology, Vec3};
 
+use super::folds::{fold_of, Fold};
 use super::readings::Readings;
 use super::rounds::RoundsSummary;
 use super::settings::{PredictConfig, PredictSettings};
@@ -447,17 +447,12 @@ pub fn chi2_quantile(x: f64, k: usize) -> f64 {
 /// Counts triangles of `after` whose normal turned by more than 90 degrees
 /// from `before` (flipped) or whose area fell below 1% of it (degenerate).
 pub fn triangle_changes(topology: &Topology, before: &[Vec3], after: &[Vec3]) -> (usize, usize) {
-    let normal = |p: &[Vec3], f: &[u32; 3]| {
-        triangle_normal(p[f[0] as usize], p[f[1] as usize], p[f[2] as usize])
-    };
     let (mut flipped, mut degenerate) = (0, 0);
     for f in topology.faces() {
-        let (n0, n1) = (normal(before, f), normal(after, f));
-        let (a0, a1) = (norm(n0), norm(n1));
-        if dot(n0, n1) < 0.0 {
-            flipped += 1;
-        } else if a1 < 0.01 * a0 {
-            degenerate += 1;
+        match fold_of(before, after, f) {
+            Some(Fold::Flipped) => flipped += 1,
+            Some(Fold::Collapsed) => degenerate += 1,
+            None => {}
         }
     }
     (flipped, degenerate)
