@@ -62,6 +62,12 @@ pub struct PredictOptions {
     /// `Some(None)`: nothing; `Some(Some(r))`: `r`.
     #[serde(default)]
     pub real_people: Option<Option<RealPeople>>,
+    /// Whether step 2 smooths out the triangles it folded
+    /// ([`tapeshape_model::Step2Settings::fold_repair`]): `None`: the
+    /// pipeline's (the station's: yes; the paper's: no); `Some(false)`:
+    /// step 2's body as its solver left it.
+    #[serde(default)]
+    pub fold_repair: Option<bool>,
 }
 
 impl PredictOptions {
@@ -96,6 +102,9 @@ impl PredictOptions {
         }
         if let Some(rounds) = self.s {
             s.s = rounds;
+        }
+        if let Some(repair) = self.fold_repair {
+            s.step2.fold_repair = repair;
         }
         if let Some(first) = self.smooth_first {
             s.step2.first = first.then(tapeshape_model::Step2Solver::smooth_basis);
@@ -193,5 +202,26 @@ mod tests {
         };
         assert_eq!(bent.settings().step2.first, None);
         assert!(bent.resolve().is_ok());
+    }
+
+    /// `fold_repair` overrides the pipeline's both ways and nothing else.
+    #[test]
+    fn fold_repair_is_the_pipelines_unless_said() {
+        assert!(PredictOptions::default().settings().step2.fold_repair);
+        assert!(!PredictOptions::paper().settings().step2.fold_repair);
+        let off = PredictOptions {
+            fold_repair: Some(false),
+            ..PredictOptions::default()
+        };
+        let mut want = PredictSettings::default();
+        want.step2.fold_repair = false;
+        assert_eq!(off.settings(), want);
+        let on = PredictOptions {
+            fold_repair: Some(true),
+            ..PredictOptions::paper()
+        };
+        let mut want = PredictSettings::paper();
+        want.step2.fold_repair = true;
+        assert_eq!(on.settings(), want);
     }
 }

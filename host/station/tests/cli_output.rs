@@ -279,7 +279,8 @@ fn dataset_stats_all_prints_every_dimension() {
 
 /// `--step2 lbfgs` runs the paper's L-BFGS alone and says so (in the
 /// printout and the report's settings); the default tries the smooth basis
-/// first and reports what became of it.
+/// first and reports what became of it; `--no-fold-repair` turns the fold
+/// repair off.
 #[test]
 fn predict_step2_chooses_the_solver_and_reports_it() {
     let tmp = tempfile::tempdir().unwrap();
@@ -327,6 +328,12 @@ fn predict_step2_chooses_the_solver_and_reports_it() {
     assert!(stdout.contains("step 2: "), "{stdout}");
     let first = &doc["prediction"]["step2_first"];
     assert!(first["kept"].is_boolean(), "{first}");
+    assert!(!doc["prediction"]["settings"]["step2"]["first"].is_null());
+    // The fold repair is on unless `--no-fold-repair` says otherwise, and
+    // the report records which.
+    assert_eq!(doc["prediction"]["settings"]["step2"]["fold_repair"], true);
+    let (_, doc) = run(&["--no-fold-repair"], "no-repair.json");
+    assert_eq!(doc["prediction"]["settings"]["step2"]["fold_repair"], false);
     assert!(!doc["prediction"]["settings"]["step2"]["first"].is_null());
     // A solver that is not one is refused with the choices.
     let out = common::tapeshape(tmp.path(), &["predict", "--measure", "stature=176cm"])

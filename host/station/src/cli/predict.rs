@@ -121,6 +121,14 @@ pub struct Args {
     #[arg(long, value_name = "SOLVER", value_enum)]
     pub step2: Option<Step2Choice>,
 
+    /// Leave the triangles step 2 folded as they are. By default a body
+    /// whose surface step 2 turned over in places (a crotch or navel pulled
+    /// through its neighbours by many readings) is smoothed there, kept only
+    /// where no reading within its ISO 20685-1 allowable error falls out,
+    /// and the report says so (`folds-smoothed`; docs/prediction.md).
+    #[arg(long)]
+    pub no_fold_repair: bool,
+
     /// List the model's measurements (name, sets, label) and exit.
     #[arg(long)]
     pub list: bool,
@@ -199,6 +207,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<()> {
         bending: args.bending,
         smooth_first: args.step2.map(|c| c == Step2Choice::SmoothFirst),
         real_people: args.no_real_people.then_some(None),
+        fold_repair: args.no_fold_repair.then_some(false),
         ..PredictOptions::default()
     };
     // The chart is checked before the estimate: a wrong chart costs nothing.
