@@ -13,7 +13,8 @@
 //!   male indicator), in the same run;
 //! * the entered values re-measured on the body and judged against their
 //!   ISO 20685-1 allowable error (the definition's tolerance class);
-//! * refusals (with the estimator's message), flipped triangles.
+//! * refusals (with the estimator's message), flipped and collapsed
+//!   triangles.
 //!
 //! The measurements on the body use the same definitions the model was
 //! trained with (the union of the `ansur` and `quick` sets), compiled once.
@@ -77,6 +78,9 @@ pub struct PersonResult {
     pub recorded_only: Vec<usize>,
     /// Flipped triangles of the result.
     pub flipped: usize,
+    /// Collapsed triangles of the result (area below 1 % of the step-1
+    /// shape's).
+    pub collapsed: usize,
     /// The estimate's warnings.
     pub warnings: Vec<String>,
     /// The soft targets' conditional SDs (name, mm): the body's spread where
@@ -99,6 +103,7 @@ impl PersonResult {
             entered: Vec::new(),
             recorded_only: Vec::new(),
             flipped: 0,
+            collapsed: 0,
             warnings: Vec::new(),
             soft_sd_mm: Vec::new(),
             surface: None,
@@ -449,6 +454,7 @@ pub fn run_with_surface(
                             .filter_map(|m| union.index_of(&m.name))
                             .collect();
                         r.flipped = est.report.prediction.plausibility.flipped_triangles;
+                        r.collapsed = est.report.prediction.plausibility.degenerate_triangles;
                         // The topology was checked above: judging cannot fail.
                         r.surface = surface.and_then(|c| c.judge(&est.mesh.vertices).ok());
                         r.soft_sd_mm = est
@@ -667,7 +673,11 @@ for information)"
         }
     }
     let flipped: usize = run.people.iter().map(|p| p.flipped).sum();
-    let _ = writeln!(s, "\nFlipped triangles over all bodies: {flipped}.");
+    let collapsed: usize = run.people.iter().map(|p| p.collapsed).sum();
+    let _ = writeln!(
+        s,
+        "\nFlipped triangles over all bodies: {flipped}; collapsed: {collapsed}."
+    );
     let refused: Vec<String> = run
         .people
         .iter()

@@ -10,8 +10,12 @@
 //! triangles' neighbourhood the mean displacement of its neighbours (a
 //! Jacobi step of the displacement's Laplace equation, the region's border
 //! and the pinned vertices held), a few rounds at a time, the region
-//! growing by a ring when it does not settle. Written here because it is a
-//! dozen lines over the template's own edges; no mesh crate has it.
+//! growing by a ring when it does not settle. A triangle still folded after
+//! that (mostly the template's slivers, a millimetre across, whose vertices
+//! the smoothing moves by nearly but not exactly the same) is then moved as
+//! one piece, with its held vertices where it has any. Written here because
+//! it is a few dozen lines over the template's own edges; no mesh crate has
+//! it.
 
 use tapeshape_mesh::vec3::{dot, norm, triangle_normal};
 use tapeshape_mesh::{Topology, Vec3};
@@ -24,6 +28,10 @@ pub(crate) const REPAIR_ROUNDS: usize = 60;
 
 /// The region grows by a ring every this many rounds.
 pub(crate) const REPAIR_GROW_EVERY: usize = 20;
+
+/// Passes that move the triangles still folded after the smoothing as one
+/// piece each ([`translate_folded`]), while the count falls.
+pub(crate) const TRANSLATE_PASSES: usize = 5;
 
 /// How a triangle of the template changed from `before` to `after`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -113,7 +121,57 @@ pub(crate) fn smooth_folds(
         }
         folded = folded_faces(topology, reference, x);
     }
+    for _ in 0..TRANSLATE_PASSES {
+        if folded.is_empty() {
+            break;
+        }
+        let saved = x.to_vec();
+        let count = folded.len();
+        translate_folded(topology, reference, x, pinned, &folded);
+        folded = folded_faces(topology, reference, x);
+        if folded.len() >= count {
+            x.copy_from_slice(&saved);
+            folded = folded_faces(topology, reference, x);
+            break;
+        }
+    }
     (before, folded.len())
+}
+
+/// Moves each of the `folded` faces of `x` as one piece (`reference`,
+/// `x`: V vertices, the same unit; `x` changed in place): its free vertices
+/// take the mean displacement from `reference` of its held vertices, or of
+/// all three where none is held. A translated triangle has the reference's
+/// normal and area, so it is no longer folded; where the smoothing leaves a
+/// sliver of the template (edges of a millimetre, whose vertices move by
+/// nearly but not exactly the same) folded, this unfolds it at the cost of
+/// a fraction of a millimetre. A face whose three vertices are held is left.
+fn translate_folded(
+    topology: &Topology,
+    reference: &[Vec3],
+    x: &mut [Vec3],
+    pinned: &[bool],
+    folded: &[usize],
+) {
+    for &f in folded {
+        let face = topology.faces()[f].map(|v| v as usize);
+        let held: Vec<usize> = face.iter().copied().filter(|&v| pinned[v]).collect();
+        if held.len() == face.len() {
+            continue;
+        }
+        let from: &[usize] = if held.is_empty() { &face } else { &held };
+        let mut d = [0.0; 3];
+        for &v in from {
+            for c in 0..3 {
+                d[c] += (x[v][c] - reference[v][c]) / from.len() as f64;
+            }
+        }
+        for v in face.into_iter().filter(|&v| !pinned[v]) {
+            for c in 0..3 {
+                x[v][c] = reference[v][c] + d[c];
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -179,6 +237,60 @@ mod tests {
         let copy = flat.clone();
         assert_eq!(smooth_folds(&topo, &reference, &mut flat, &pinned), (0, 0));
         assert_eq!(flat, copy);
+    }
+
+    #[test]
+    fn a_folded_face_is_translated_by_its_held_vertices_or_its_mean() {
+        let (topo, reference) = grid(5);
+        let f = 10;
+        let face = topo.faces()[f].map(|v| v as usize);
+        let displacement = [[0.3, -0.2, 0.1], [-1.5, 0.4, 0.0], [0.6, 2.0, -0.3]];
+        let mut x = reference.clone();
+        for (v, d) in face.iter().zip(displacement) {
+            for c in 0..3 {
+                x[*v][c] += d[c];
+            }
+        }
+        assert_eq!(
+            fold_of(&reference, &x, &topo.faces()[f]),
+            Some(Fold::Flipped)
+        );
+
+        // Nothing held: the three take their mean displacement, the face
+        // is the reference's moved, no other vertex changes.
+        let mut free = x.clone();
+        translate_folded(&topo, &reference, &mut free, &[false; 25], &[f]);
+        let mean = [-0.2, 2.2 / 3.0, -0.2 / 3.0];
+        for v in 0..25 {
+            for c in 0..3 {
+                let want = if face.contains(&v) {
+                    reference[v][c] + mean[c]
+                } else {
+                    x[v][c]
+                };
+                assert!((free[v][c] - want).abs() < 1e-12, "vertex {v}");
+            }
+        }
+        assert_eq!(fold_of(&reference, &free, &topo.faces()[f]), None);
+
+        // One held: it stays, the others take its displacement.
+        let mut pinned = [false; 25];
+        pinned[face[1]] = true;
+        let mut held = x.clone();
+        translate_folded(&topo, &reference, &mut held, &pinned, &[f]);
+        assert_eq!(held[face[1]], x[face[1]]);
+        for v in [face[0], face[2]] {
+            for c in 0..3 {
+                assert!((held[v][c] - reference[v][c] - displacement[1][c]).abs() < 1e-12);
+            }
+        }
+        assert_eq!(fold_of(&reference, &held, &topo.faces()[f]), None);
+
+        // All three held: left as it is.
+        face.iter().for_each(|&v| pinned[v] = true);
+        let mut all = x.clone();
+        translate_folded(&topo, &reference, &mut all, &pinned, &[f]);
+        assert_eq!(all, x);
     }
 
     #[test]
