@@ -157,8 +157,8 @@ pub struct Step2Settings {
     /// landmarks of the triangles still folded are let go (all or part of
     /// the way, on the same terms). On all 1,505 ANSUR II test-split people
     /// entered with their `ansur` survey values the flipped triangles went
-    /// from 4,466 to 1,166, the share within ISO unchanged (99.6 %; no
-    /// dimension's lower) (`docs/results/real-customers.md`).
+    /// from 4,466 to 1,078, the share within ISO unchanged (99.6 %, every
+    /// dimension's) (`docs/results/real-customers.md`).
     pub fold_repair: bool,
 }
 
