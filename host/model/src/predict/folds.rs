@@ -17,7 +17,7 @@
 //! it is a few dozen lines over the template's own edges; no mesh crate has
 //! it.
 
-use tapeshape_mesh::vec3::{dot, norm, triangle_normal};
+use tapeshape_mesh::vec3::{add, dot, norm, sub, triangle_normal};
 use tapeshape_mesh::{Topology, Vec3};
 
 /// Rings of neighbours around the folded triangles smoothed from the start.
@@ -126,14 +126,13 @@ pub(crate) fn smooth_folds(
             break;
         }
         let saved = x.to_vec();
-        let count = folded.len();
         translate_folded(topology, reference, x, pinned, &folded);
-        folded = folded_faces(topology, reference, x);
-        if folded.len() >= count {
+        let now = folded_faces(topology, reference, x);
+        if now.len() >= folded.len() {
             x.copy_from_slice(&saved);
-            folded = folded_faces(topology, reference, x);
             break;
         }
+        folded = now;
     }
     (before, folded.len())
 }
@@ -160,16 +159,12 @@ fn translate_folded(
             continue;
         }
         let from: &[usize] = if held.is_empty() { &face } else { &held };
-        let mut d = [0.0; 3];
-        for &v in from {
-            for c in 0..3 {
-                d[c] += (x[v][c] - reference[v][c]) / from.len() as f64;
-            }
-        }
+        let n = from.len() as f64;
+        let d = from.iter().fold([0.0; 3], |d, &v| {
+            add(d, sub(x[v], reference[v]).map(|e| e / n))
+        });
         for v in face.into_iter().filter(|&v| !pinned[v]) {
-            for c in 0..3 {
-                x[v][c] = reference[v][c] + d[c];
-            }
+            x[v] = add(reference[v], d);
         }
     }
 }

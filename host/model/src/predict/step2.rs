@@ -46,6 +46,7 @@
 //! 20685-1 either way; on all 1,505, 4,466 -> 1,078, 99.6 % either way.
 
 use tapeshape_measure::Measured;
+use tapeshape_mesh::vec3::{add, scale, sub};
 use tapeshape_mesh::{Topology, Vec3};
 
 use super::folds;
@@ -410,7 +411,7 @@ impl ShapeModel {
                         .vertices
                         .iter()
                         .zip(&x)
-                        .map(|(a, b)| std::array::from_fn(|c| a[c] + part * (b[c] - a[c])))
+                        .map(|(&a, &b)| add(a, scale(sub(b, a), part)))
                         .collect();
                     let n = folds::folded_faces(topology, &step1.vertices, &y).len();
                     if n >= left {
