@@ -541,3 +541,92 @@ fn a_survey_sleeve_outseam_with_its_parts_is_recorded_and_the_parts_met() {
         .iter()
         .any(|w| matches!(w, tapeshape_estimator::Warning::RecordedSumOfParts { .. })));
 }
+
+/// Issue 12, item 4: step 2 follows the soft targets
+/// (`Step2Settings::soft_pull`). Aimed all the way at them, the unmeasured
+/// dimensions end nearer to what real people with these readings have
+/// than held at step 1's values, and every reading is still met within
+/// its ISO 20685-1 allowable error.
+#[test]
+fn step2_pulls_the_unmeasured_towards_real_people() {
+    let e = estimator();
+    let mut i = entered(&MAN);
+    i.sex = Some(Sex::Male);
+    let run = |pull: f64| {
+        let mut s = PredictOptions::default().settings();
+        s.step2.soft_pull = pull;
+        let mut o = PredictOptions::custom(s);
+        o.real_people = Some(Some(tapeshape_estimator::RealPeople::default()));
+        e.predict(&i, &o).unwrap()
+    };
+    let (held, pulled) = (run(0.0), run(1.0));
+    let miss = |est: &tapeshape_estimator::Estimate| {
+        let soft: Vec<f64> = est
+            .report
+            .prediction
+            .measurements
+            .iter()
+            .filter(|m| m.soft)
+            .map(|m| (m.step2_mm.unwrap() - m.target_mm.unwrap()).abs())
+            .collect();
+        assert!(soft.len() > 20, "{} soft targets", soft.len());
+        soft.iter().sum::<f64>() / soft.len() as f64
+    };
+    let (h, p) = (miss(&held), miss(&pulled));
+    assert!(
+        p < 0.8 * h,
+        "soft targets missed by {p:.2} mm pulled, {h:.2} mm held"
+    );
+    for m in pulled
+        .report
+        .prediction
+        .measurements
+        .iter()
+        .filter(|m| m.target_mm.is_some() && !m.soft)
+    {
+        let j = e.set().index_of(&m.name).unwrap();
+        let iso = e.set().definitions[j].tolerance.mm();
+        assert!(
+            m.error_mm.unwrap() <= iso,
+            "{}: missed by {:.2} mm, ISO allows {iso} mm",
+            m.name,
+            m.error_mm.unwrap()
+        );
+    }
+}
+
+/// `RealPeople::breadths_and_depths` gives soft targets to the breadths
+/// and depths the mesh can follow, never to the dimensions it cannot
+/// measure as ANSUR II does; off, none of them gets one.
+#[test]
+fn breadths_and_depths_get_soft_targets_only_where_the_mesh_can_follow() {
+    use tapeshape_estimator::priors::{CANNOT_FOLLOW_ANSUR, NOT_YET_ANSUR};
+    let e = estimator();
+    let mut i = entered(&MAN);
+    i.sex = Some(Sex::Female);
+    let columns = |r: tapeshape_estimator::RealPeople| -> Vec<String> {
+        e.soft_targets(&i, &r)
+            .unwrap()
+            .iter()
+            .filter_map(|(j, _, _)| e.set().definitions[*j].ansur.clone())
+            .collect()
+    };
+    let on = columns(tapeshape_estimator::RealPeople::default());
+    let off = columns(tapeshape_estimator::RealPeople {
+        breadths_and_depths: false,
+        ..Default::default()
+    });
+    for c in NOT_YET_ANSUR {
+        let can = !CANNOT_FOLLOW_ANSUR.contains(c);
+        assert_eq!(
+            on.iter().any(|o| o == c),
+            can,
+            "{c} with breadths and depths"
+        );
+        assert!(!off.iter().any(|o| o == c), "{c} without");
+    }
+    assert_eq!(
+        on.len(),
+        off.len() + NOT_YET_ANSUR.len() - CANNOT_FOLLOW_ANSUR.len()
+    );
+}

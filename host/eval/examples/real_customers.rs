@@ -14,6 +14,10 @@
 //! as ANSUR does are recorded, not fitted, and left out of the ISO share),
 //! `--first none|smooth` (step 2's solver tried first, see
 //! `tapeshape_model::Step2Settings::first`),
+//! `--soft-pull SHARE` (`tapeshape_model::Step2Settings::soft_pull`),
+//! `--no-breadths-and-depths` (no soft targets for chest depth, hip and
+//! waist breadth, waist depth, interscye I:
+//! `tapeshape_estimator::RealPeople::breadths_and_depths`),
 //! `--model FILE` (a model file instead of the embedded default: measure a
 //! candidate before `scripts/rebuild-default-model.sh` embeds it),
 //! `--out FILE` (the Markdown page; default: print it),
@@ -76,6 +80,25 @@ fn main() -> ExitCode {
                 opts.options.pipeline = tapeshape_estimator::Pipeline::Custom(Box::new(settings));
                 Ok(())
             }),
+            "--soft-pull" => value("a share in [0, 1]").and_then(|v| {
+                let pull: f64 = v.parse().map_err(|e| format!("--soft-pull {v}: {e}"))?;
+                let mut settings = opts.options.settings();
+                settings.step2.soft_pull = pull;
+                opts.options.real_people = Some(opts.options.real_people());
+                opts.options.pipeline = tapeshape_estimator::Pipeline::Custom(Box::new(settings));
+                Ok(())
+            }),
+            "--no-breadths-and-depths" => {
+                let r = opts
+                    .options
+                    .real_people()
+                    .map(|r| tapeshape_estimator::RealPeople {
+                        breadths_and_depths: false,
+                        ..r
+                    });
+                opts.options.real_people = Some(r);
+                Ok(())
+            }
             "--leave-out" => value("an ANSUR column").map(|v| opts.leave_out.push(v)),
             "--ansur-survey" => {
                 opts.ansur_survey = true;

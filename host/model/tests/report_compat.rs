@@ -21,9 +21,11 @@ fn a_report_of_the_flat_settings_record_reads_back_as_the_default() {
     // (the one solver there was), whatever the default is now.
     let mut then = PredictSettings::default();
     then.step2.solver = Step2Solver::paper();
-    // Nor did it try another solver first, or smooth out folds.
+    // Nor did it try another solver first, smooth out folds, or move soft
+    // targets in step 2.
     then.step2.first = None;
     then.step2.fold_repair = false;
+    then.step2.soft_pull = 0.0;
     // And its step-1 continuation rounds ran step 1's own iteration cap.
     if let Some(c) = then.continuation.as_mut() {
         c.step1_max_iters = None;

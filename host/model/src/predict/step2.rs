@@ -8,7 +8,11 @@
 //! was weighed against the prior and the other readings in step 1; step 2
 //! keeps the value step 1 gave it (as its target) instead of bending the
 //! surface towards the doubtful reading, which a strong per-measurement
-//! weight would otherwise do.
+//! weight would otherwise do. A soft target (a statistic of real people
+//! for what was not measured) is aimed
+//! [`super::Step2Settings::soft_pull`] of the way from its step-1 value to
+//! its own, so step 2 can carry the unmeasured dimensions where the learned
+//! space could not.
 //!
 //! Each round starts from a re-measured shape, and where supports jump
 //! (a hull gains points, a cut curve moves to the shoulder) a round can end
@@ -337,11 +341,13 @@ impl ShapeModel {
         // A straight reading's value is its landmarks' positions: they
         // stay. A girth's hull or a path's route is found again on the
         // smoothed body.
+        // A soft target is a statistic, not the customer: its landmarks
+        // are not held and it may fall out of its tolerance.
         let mut pinned = vec![false; topology.n_vertices()];
-        for m in shape
-            .measured
+        for (_, m) in readings
             .iter()
-            .filter(|m| m.support.segments.len() <= 1)
+            .zip(&shape.measured)
+            .filter(|(g, m)| !g.soft && m.support.segments.len() <= 1)
         {
             hold(&mut pinned, m);
         }
@@ -350,6 +356,9 @@ impl ShapeModel {
                 .iter()
                 .zip(m)
                 .map(|(g, m)| {
+                    if g.soft {
+                        return true;
+                    }
                     let allowable = measurer
                         .allowable_error(g.index)
                         .map_or(FOLD_REPAIR_DEFAULT_MM, |a| a * MM_PER_M);
@@ -540,7 +549,9 @@ impl ShapeModel {
     /// (vertices, metres, and the readings measured on them; `None`: the
     /// step-1 shape). The objective is the same either way: `E_s` of the
     /// displacement from the step-1 shape, a doubtful reading kept at its
-    /// step-1 value, and the result compared with step 1's energy.
+    /// step-1 value, a loose soft target moved
+    /// [`super::Step2Settings::soft_pull`] of the way from its step-1 value
+    /// to its own, and the result compared with step 1's energy.
     #[allow(clippy::too_many_arguments)]
     fn step2_from(
         &self,
@@ -555,7 +566,10 @@ impl ShapeModel {
     ) -> Result<Step2Shape> {
         let readings2 =
             readings.with_targets(readings.iter().zip(&step1.measured).map(|(g, m)| {
-                if g.weight < 1.0 {
+                if g.soft && g.weight < 1.0 {
+                    let at = m.value * MM_PER_M;
+                    at + config.soft_pull * (g.target_mm - at)
+                } else if g.weight < 1.0 {
                     m.value * MM_PER_M
                 } else {
                     g.target_mm

@@ -159,6 +159,26 @@ fn bad_values_are_refused_when_resolved_naming_the_setting() {
         (
             PredictSettings {
                 step2: Step2Settings {
+                    soft_pull: 1.5,
+                    ..PredictSettings::default().step2
+                },
+                ..Default::default()
+            },
+            "soft_pull must lie in [0, 1]",
+        ),
+        (
+            PredictSettings {
+                step2: Step2Settings {
+                    soft_pull: f64::NAN,
+                    ..PredictSettings::default().step2
+                },
+                ..Default::default()
+            },
+            "soft_pull must lie in [0, 1]",
+        ),
+        (
+            PredictSettings {
+                step2: Step2Settings {
                     bending: 10.0,
                     solver: Step2Solver::smooth_basis(),
                     ..PredictSettings::default().step2

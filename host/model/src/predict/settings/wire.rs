@@ -27,6 +27,9 @@ struct Step2Wire {
     /// Reports before the fold repair ran without it.
     #[serde(default)]
     fold_repair: bool,
+    /// Reports before it held soft targets at their step-1 value.
+    #[serde(default)]
+    soft_pull: f64,
 }
 
 impl<'de> Deserialize<'de> for Step2Settings {
@@ -44,6 +47,7 @@ impl<'de> Deserialize<'de> for Step2Settings {
             solver,
             first: w.first,
             fold_repair: w.fold_repair,
+            soft_pull: w.soft_pull,
         })
     }
 }
@@ -141,6 +145,7 @@ impl From<FlatWire> for PredictSettings {
                 solver: Step2Solver::Lbfgs { stop: f.step2_stop },
                 first: None,
                 fold_repair: false,
+                soft_pull: 0.0,
             },
             continuation: f.continuation,
             warn_error_mm: f.warn_error_mm,
