@@ -71,6 +71,12 @@ start_demo() {
     tmux set-option -t "$SESSION" remain-on-exit on >/dev/null
 }
 
+# A session that only holds the server open: killing the demo's last
+# session ends the server, and a session started at that moment can reach
+# the exiting server ("server exited unexpectedly": a CI run on a loaded
+# machine, 2026-12-06, step 9).
+tmux new-session -d -s keeper "sleep 86400"
+
 echo "1. start the demo (data in $DATA)"
 start_demo
 wait_for "DEMO autopilot"
