@@ -14,7 +14,8 @@
 //! `(reference / tolerance)^2`, so a real reading (a few mm) dominates
 //! and a soft target only pulls where nothing was measured. Step 2 aims a
 //! soft target [`tapeshape_model::Step2Settings::soft_pull`] of the way
-//! from the value step 1 gave it to its own (the station: half the way),
+//! from the value step 1 gave it to its own (the station: none of it, so it
+//! keeps its step-1 value; see that setting for why),
 //! and its fold repair neither holds a soft target's landmarks nor keeps
 //! it within a tolerance: a statistic is not the customer.
 //!
@@ -112,7 +113,9 @@ pub struct RealPeople {
     /// The columns of [`NOT_YET_ANSUR`] that the mesh can measure as
     /// ANSUR II defines them (all but [`CANNOT_FOLLOW_ANSUR`]: chest
     /// depth, hip and waist breadth, waist depth, interscye I) get soft
-    /// targets too. Why: with step 2 following the soft targets half the
+    /// targets too. Off by default, as
+    /// [`tapeshape_model::Step2Settings::soft_pull`] is 0: they pay with
+    /// it. With step 2 following the soft targets half the
     /// way ([`tapeshape_model::Step2Settings::soft_pull`]), all 1,505
     /// ANSUR II test-split people, quick input with sex, the mean absolute
     /// error over the 32 dimensions the mesh can follow went from 12.96 mm
@@ -131,7 +134,7 @@ impl Default for RealPeople {
     fn default() -> Self {
         Self {
             sd_scale: 1.0,
-            breadths_and_depths: true,
+            breadths_and_depths: false,
         }
     }
 }

@@ -556,7 +556,10 @@ fn step2_pulls_the_unmeasured_towards_real_people() {
         let mut s = PredictOptions::default().settings();
         s.step2.soft_pull = pull;
         let mut o = PredictOptions::custom(s);
-        o.real_people = Some(Some(tapeshape_estimator::RealPeople::default()));
+        o.real_people = Some(Some(tapeshape_estimator::RealPeople {
+            breadths_and_depths: true,
+            ..Default::default()
+        }));
         e.predict(&i, &o).unwrap()
     };
     let (held, pulled) = (run(0.0), run(1.0));
@@ -611,11 +614,11 @@ fn breadths_and_depths_get_soft_targets_only_where_the_mesh_can_follow() {
             .filter_map(|(j, _, _)| e.set().definitions[*j].ansur.clone())
             .collect()
     };
-    let on = columns(tapeshape_estimator::RealPeople::default());
-    let off = columns(tapeshape_estimator::RealPeople {
-        breadths_and_depths: false,
+    let on = columns(tapeshape_estimator::RealPeople {
+        breadths_and_depths: true,
         ..Default::default()
     });
+    let off = columns(tapeshape_estimator::RealPeople::default());
     for c in NOT_YET_ANSUR {
         let can = !CANNOT_FOLLOW_ANSUR.contains(c);
         assert_eq!(

@@ -15,8 +15,8 @@
 //! `--first none|smooth` (step 2's solver tried first, see
 //! `tapeshape_model::Step2Settings::first`),
 //! `--soft-pull SHARE` (`tapeshape_model::Step2Settings::soft_pull`),
-//! `--no-breadths-and-depths` (no soft targets for chest depth, hip and
-//! waist breadth, waist depth, interscye I:
+//! `--breadths-and-depths` (soft targets for chest depth, hip and
+//! waist breadth, waist depth, interscye I too:
 //! `tapeshape_estimator::RealPeople::breadths_and_depths`),
 //! `--model FILE` (a model file instead of the embedded default: measure a
 //! candidate before `scripts/rebuild-default-model.sh` embeds it),
@@ -88,12 +88,12 @@ fn main() -> ExitCode {
                 opts.options.pipeline = tapeshape_estimator::Pipeline::Custom(Box::new(settings));
                 Ok(())
             }),
-            "--no-breadths-and-depths" => {
+            "--breadths-and-depths" => {
                 let r = opts
                     .options
                     .real_people()
                     .map(|r| tapeshape_estimator::RealPeople {
-                        breadths_and_depths: false,
+                        breadths_and_depths: true,
                         ..r
                     });
                 opts.options.real_people = Some(r);
