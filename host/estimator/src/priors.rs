@@ -113,19 +113,18 @@ pub struct RealPeople {
     /// The columns of [`NOT_YET_ANSUR`] that the mesh can measure as
     /// ANSUR II defines them (all but [`CANNOT_FOLLOW_ANSUR`]: chest
     /// depth, hip and waist breadth, waist depth, interscye I) get soft
-    /// targets too. Off by default, as
-    /// [`tapeshape_model::Step2Settings::soft_pull`] is 0: they pay with
-    /// it. With step 2 following the soft targets half the
-    /// way ([`tapeshape_model::Step2Settings::soft_pull`]), all 1,505
-    /// ANSUR II test-split people, quick input with sex, the mean absolute
-    /// error over the 32 dimensions the mesh can follow went from 12.96 mm
-    /// without them to 11.50 mm (least squares 9.54 mm), none folded:
-    /// waist breadth 2.01 -> 1.04 x least squares' error, interscye I 1.49
-    /// -> 1.06 x, hip breadth 4.06 -> 1.90 x, waist depth 5.22 -> 2.43 x,
-    /// but buttock depth 1.03 -> 2.30 x: the mesh's hip and waist girths do
-    /// not have ANSUR's relation to their breadths and depths
+    /// targets too. On by default: step 1 follows them in the learned
+    /// space; step 2 holds them at their step-1 value
+    /// ([`tapeshape_model::Step2Settings::soft_pull`] pulls the other soft
+    /// targets half the way). All 1,505 ANSUR II test-split people, quick
+    /// input with sex, the mean absolute error over the 32 dimensions the
+    /// mesh can follow went from 12.96 mm without them to 11.61 mm (least
+    /// squares 9.54 mm), none folded. Pulled in step 2 as well they gave
+    /// 11.50 mm, but the mesh's hip and waist girths do not have ANSUR's
+    /// relation to their breadths and depths: a narrower hip bulged the
+    /// buttocks and step 2 gave way to L-BFGS or kept the step-1 shape
     /// (docs/results/real-customers.md, "Step 2 and the soft targets").
-    /// Reports from before were made without.
+    /// Reports from before 2026-12-06 were made without.
     #[serde(default)]
     pub breadths_and_depths: bool,
 }
@@ -134,7 +133,7 @@ impl Default for RealPeople {
     fn default() -> Self {
         Self {
             sd_scale: 1.0,
-            breadths_and_depths: false,
+            breadths_and_depths: true,
         }
     }
 }

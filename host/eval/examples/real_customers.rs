@@ -15,9 +15,10 @@
 //! `--first none|smooth` (step 2's solver tried first, see
 //! `tapeshape_model::Step2Settings::first`),
 //! `--soft-pull SHARE` (`tapeshape_model::Step2Settings::soft_pull`),
-//! `--breadths-and-depths` (soft targets for chest depth, hip and
-//! waist breadth, waist depth, interscye I too:
-//! `tapeshape_estimator::RealPeople::breadths_and_depths`),
+//! `--breadths-and-depths` / `--no-breadths-and-depths` (soft targets for
+//! chest depth, hip and waist breadth, waist depth, interscye I too, or
+//! not: `tapeshape_estimator::RealPeople::breadths_and_depths`, on by
+//! default),
 //! `--model FILE` (a model file instead of the embedded default: measure a
 //! candidate before `scripts/rebuild-default-model.sh` embeds it),
 //! `--out FILE` (the Markdown page; default: print it),
@@ -94,6 +95,17 @@ fn main() -> ExitCode {
                     .real_people()
                     .map(|r| tapeshape_estimator::RealPeople {
                         breadths_and_depths: true,
+                        ..r
+                    });
+                opts.options.real_people = Some(r);
+                Ok(())
+            }
+            "--no-breadths-and-depths" => {
+                let r = opts
+                    .options
+                    .real_people()
+                    .map(|r| tapeshape_estimator::RealPeople {
+                        breadths_and_depths: false,
                         ..r
                     });
                 opts.options.real_people = Some(r);

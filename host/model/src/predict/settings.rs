@@ -404,20 +404,19 @@ impl Default for PredictSettings {
                 // L-BFGS one.
                 first: Some(Step2Solver::smooth_basis()),
                 fold_repair: true,
-                // Soft targets held at their step-1 value, as before.
-                // Followed half the way (0.5), all 1,505 ANSUR II
-                // test-split people, quick input with sex, with the
-                // estimator's `RealPeople::breadths_and_depths`: the mean
-                // absolute error over the 32 dimensions the mesh can follow
-                // 14.60 -> 11.50 mm (least squares with sex 9.54), no fold,
-                // surface check 1,504 -> 1,501; all the way (1) 10.76 mm
-                // but 75 flipped triangles and 1,319 passing. Not the
-                // default: with four readings and no sex (the bench's
-                // `tapeshape predict`) the pulled soft targets make step 2's
-                // smooth basis fall back to L-BFGS, 0.58 s instead of
-                // 0.09 s (issue 13's target: 120 ms)
+                // Soft targets followed half the way, a breadth or depth
+                // held at its step-1 value (step 2's `is_caliper`). All
+                // 1,505 ANSUR II test-split people, quick input with sex,
+                // with the estimator's `RealPeople::breadths_and_depths`:
+                // the mean absolute error over the 32 dimensions the mesh
+                // can follow 14.60 (held) -> 11.61 mm (least squares with
+                // sex 9.54), none folded; 0.75 gave 10.98 mm with 4
+                // flipped triangles, 1 gave 10.72 mm with 71. With the
+                // calipers pulled too (11.50 mm) four readings without sex
+                // made step 2's smooth basis give way to L-BFGS, 0.58 s a
+                // body instead of 0.09 s (issue 13's target: 120 ms)
                 // (docs/results/real-customers.md).
-                soft_pull: 0.0,
+                soft_pull: 0.5,
             },
             continuation: Some(Continuation::default()),
             warn_error_mm: 5.0,

@@ -12,7 +12,8 @@
 //! for what was not measured) is aimed
 //! [`super::Step2Settings::soft_pull`] of the way from its step-1 value to
 //! its own, so step 2 can carry the unmeasured dimensions where the learned
-//! space could not.
+//! space could not; a soft breadth or depth (a caliper) is held at its
+//! step-1 value instead (see `is_caliper`).
 //!
 //! Each round starts from a re-measured shape, and where supports jump
 //! (a hull gains points, a cut curve moves to the shoulder) a round can end
@@ -264,6 +265,22 @@ impl RoundStep for Step2Rounds<'_> {
             Err(e) => Ok(RoundEnd::Failed(e)),
         }
     }
+}
+
+/// Whether a measurement's support is a caliper: an extent along a
+/// horizontal axis (a breadth or depth; a height's axis is +Z). Its value
+/// is the distance between the two extreme points of a cut's hull, so
+/// step 2, which moves the vertices of those two points, lets the cut's
+/// other points bulge past them, and with the cut's girth given a
+/// narrower breadth is a deeper section: a soft target pulled half the
+/// way on hip breadth (364 -> 354 mm, hip girth held at 1,000 mm) left
+/// buttock depth 20 mm deeper, away from its own target, step 2 ended
+/// above step 1's energy and kept the step-1 shape. So step 2 holds a soft
+/// caliper target at its step-1 value; step 1, which moves the whole body
+/// in the learned space, has already followed it as far as the body can
+/// (`docs/results/real-customers.md`, 2026-12-06).
+fn is_caliper(support: &tapeshape_measure::Support) -> bool {
+    support.axis.is_some_and(|a| a[2].abs() < 0.5)
 }
 
 /// How many times the fold repair starts again with more supports held.
@@ -568,7 +585,11 @@ impl ShapeModel {
             readings.with_targets(readings.iter().zip(&step1.measured).map(|(g, m)| {
                 if g.soft && g.weight < 1.0 {
                     let at = m.value * MM_PER_M;
-                    at + config.soft_pull * (g.target_mm - at)
+                    if is_caliper(&m.support) {
+                        at
+                    } else {
+                        at + config.soft_pull * (g.target_mm - at)
+                    }
                 } else if g.weight < 1.0 {
                     m.value * MM_PER_M
                 } else {
