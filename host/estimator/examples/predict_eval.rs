@@ -799,12 +799,14 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
                     modes,
                     polish,
                     stop,
+                    min_decrease_mm,
                     ..
                 } => Step2Solver::SmoothBasis {
                     modes,
                     fit: tapeshape_model::SmoothFit::Segments,
                     polish,
                     stop,
+                    min_decrease_mm,
                 },
                 other => other,
             },
@@ -820,6 +822,7 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
                         fit: tapeshape_model::SmoothFit::Readings,
                         polish: parts.as_ref().and_then(|p| p.get(1).copied()).unwrap_or(0),
                         stop: Default::default(),
+                        min_decrease_mm: tapeshape_model::DEFAULT_SMOOTH_MIN_DECREASE_MM,
                     },
                     _ => {
                         return Err(format!(

@@ -227,6 +227,36 @@ impl Estimator {
             })
             .filter_map(|j| real.row(j).map(|r| (j, r)))
             .collect();
+        // One soft target per ANSUR II column: where two measurements of
+        // the model follow the same column (the quick set's `neck` and the
+        // ansur set's `neckcircumferencebase`), a target on each counted
+        // the same real-people statistic twice, twice the weight of any
+        // other, and cost step 2 a reading more. The one named as the
+        // column (the ansur set's) is kept, else the first.
+        let wanted: Vec<(usize, usize)> = wanted
+            .iter()
+            .copied()
+            .filter(|&(j, _)| {
+                let column = self.set.definitions[j].ansur.as_deref();
+                let same: Vec<usize> = wanted
+                    .iter()
+                    .map(|&(i, _)| i)
+                    .filter(|&i| {
+                        column.is_some() && self.set.definitions[i].ansur.as_deref() == column
+                    })
+                    .collect();
+                let keep = same
+                    .iter()
+                    .copied()
+                    .find(|&i| {
+                        self.set.definitions[i].ansur.as_deref()
+                            == Some(self.set.definitions[i].name.as_str())
+                    })
+                    .or(same.first().copied())
+                    .unwrap_or(j);
+                keep == j
+            })
+            .collect();
         if wanted.is_empty() || real.is_empty() {
             return Ok(Vec::new());
         }

@@ -110,6 +110,35 @@ fn sex_changes_what_real_people_predict_for_the_unmeasured() {
     assert_eq!(est.report.soft_targets.len(), sm.len());
 }
 
+/// One soft target per ANSUR II column: the quick set's `neck` and the
+/// ansur set's `neckcircumferencebase` follow the same column, and a
+/// target on each counted one statistic twice. The one named as the column
+/// is kept.
+#[test]
+fn one_soft_target_per_ansur_column() {
+    let e = estimator();
+    let mut man = entered(&["stature=170cm", "chest=95cm", "hip=100cm"]);
+    man.sex = Some(Sex::Male);
+    let soft = e
+        .soft_targets(&man, &tapeshape_estimator::RealPeople::default())
+        .unwrap();
+    let column = |j: usize| e.set().definitions[j].ansur.clone();
+    let mut columns: Vec<String> = soft.iter().filter_map(|(j, _, _)| column(*j)).collect();
+    let n = columns.len();
+    assert!(n > 10, "{n} soft targets");
+    columns.sort();
+    columns.dedup();
+    assert_eq!(columns.len(), n, "a column twice: {soft:?}");
+    let names: Vec<&str> = soft.iter().map(|(_, _, t)| t.name.as_str()).collect();
+    // Both follow ANSUR's neck base girth, neither was given.
+    assert_eq!(
+        column(e.set().index_of("neck").unwrap()),
+        column(e.set().index_of("neckcircumferencebase").unwrap())
+    );
+    assert!(names.contains(&"neckcircumferencebase"), "{names:?}");
+    assert!(!names.contains(&"neck"), "{names:?}");
+}
+
 #[test]
 fn soft_targets_follow_the_real_people_conditional() {
     // With only a stature, a soft target is ANSUR II's regression on it:

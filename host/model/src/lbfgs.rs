@@ -122,6 +122,10 @@ pub enum Termination {
     /// A Gauss-Newton MAP round whose step lowered no re-measured
     /// objective; the round ran L-BFGS on `E_m` instead (the next run).
     GaussNewtonFellBack,
+    /// A step gained, or the Gauss-Newton model promised, less energy than
+    /// a small error on one reading costs (the smooth basis's
+    /// `min_decrease_mm`, [`crate::reduced::minimise_reduced`]).
+    DecreaseBelowReading,
     /// Read from a report of an older version that recorded the reason as
     /// text this version does not know.
     Recorded(String),
@@ -142,6 +146,9 @@ impl std::fmt::Display for Termination {
             Self::GaussNewtonFellBack => f.write_str(
                 "Gauss-Newton MAP: no step lowered the re-measured objective; L-BFGS on E_m this round",
             ),
+            Self::DecreaseBelowReading => {
+                f.write_str("energy change below what a reading error of min_decrease_mm costs")
+            }
             Self::Recorded(text) => f.write_str(text),
         }
     }
@@ -162,6 +169,7 @@ impl<'de> serde::Deserialize<'de> for Termination {
             NoVariables,
             GaussNewton { step: f64 },
             GaussNewtonFellBack,
+            DecreaseBelowReading,
             Recorded(String),
         }
         #[derive(serde::Deserialize)]
@@ -180,6 +188,7 @@ impl<'de> serde::Deserialize<'de> for Termination {
                 Tagged::NoVariables => Self::NoVariables,
                 Tagged::GaussNewton { step } => Self::GaussNewton { step },
                 Tagged::GaussNewtonFellBack => Self::GaussNewtonFellBack,
+                Tagged::DecreaseBelowReading => Self::DecreaseBelowReading,
                 Tagged::Recorded(s) => Self::Recorded(s),
             },
             Wire::Text(s) => Self::from_legacy_text(s),

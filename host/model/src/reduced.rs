@@ -64,6 +64,9 @@ pub struct ReducedObjective<'a> {
     /// Fit each reading's length instead of each segment's
     /// ([`ReducedObjective::fit_readings`]).
     readings: Option<ReadingsFit>,
+    /// The energy of a 1 mm error on one reading at the reference
+    /// tolerance ([`ReducedObjective::with_reading_energy`]), where known.
+    per_mm2: Option<f64>,
 }
 
 /// The readings' form of `E_m`: per reading `j`, `W_j (m_j - T_j)^2`, with
@@ -167,6 +170,7 @@ impl<'a> ReducedObjective<'a> {
             es0,
             scratch: RefCell::new((vec![0.0; 3 * m], vec![0.0; 3 * m])),
             readings: None,
+            per_mm2: None,
         }
     }
 
@@ -225,6 +229,23 @@ impl<'a> ReducedObjective<'a> {
         self
     }
 
+    /// The same objective, told that its `E_m` costs about `reading_weight`
+    /// per mm^2 of one reading's error at the reference tolerance (the
+    /// per-measurement weighting's scale, [`crate::Step2Weighting`]), so
+    /// that [`minimise_reduced`] can stop on a decrease worth less than
+    /// `min_decrease_mm` of a reading: the energy of such an error is
+    /// `(1 - lambda) reading_weight min_decrease_mm^2`.
+    ///
+    /// Panics if `reading_weight` is not a positive number.
+    pub fn with_reading_energy(mut self, reading_weight: f64) -> Self {
+        assert!(
+            reading_weight.is_finite() && reading_weight > 0.0,
+            "reading_weight is a positive number"
+        );
+        self.per_mm2 = Some((1.0 - self.lambda) * reading_weight);
+        self
+    }
+
     /// Per term, its length and the length's gradient with respect to the
     /// segment vector (unit; 0 for a zero-length segment), from `d`.
     fn lengths(&self, d: &[f64]) -> (Vec<f64>, Vec<f64>) {
@@ -262,57 +283,102 @@ impl<'a> ReducedObjective<'a> {
         (len, u)
     }
 
-    /// The Gauss-Newton step of the readings' form at damping `mu`:
-    /// `(2 (1 - lambda) J^T W J + D) delta = -g` with `J` (M x 3k) the
-    /// readings' Jacobian, by the Woodbury identity over the M readings.
-    fn readings_step(&self, fit: &ReadingsFit, c: &[f64], g: &[f64], mu: f64) -> Option<Vec<f64>> {
+    /// The readings' Jacobian `J` at coefficients `c` (M x 3k, row-major:
+    /// row `j` is reading `j`'s length's gradient in the coefficients,
+    /// by coordinate). It depends on `c` alone, so a refused step's retry
+    /// at a larger damping reuses it.
+    fn readings_jacobian(&self, fit: &ReadingsFit, c: &[f64]) -> Vec<f64> {
         let (m, k) = (self.terms.len(), self.basis.k());
         let n_r = fit.target.len();
         let mut guard = self.scratch.borrow_mut();
         let (d, _) = &mut *guard;
         self.segments(c, d);
         let (_, u) = self.lengths(d);
-        // Built row-major (each term adds to contiguous runs of its
-        // reading's row), then viewed as a matrix.
-        let mut jac_rows = vec![0.0; n_r * 3 * k];
+        // Each term adds to contiguous runs of its reading's row.
+        let mut jac = vec![0.0; n_r * 3 * k];
         for (e, &j) in fit.owner.iter().enumerate() {
             let row = &self.bt[e * k..(e + 1) * k];
             for a in 0..3 {
                 let ua = u[a * m + e];
                 if ua != 0.0 {
-                    let dst = &mut jac_rows[j * 3 * k + a * k..j * 3 * k + (a + 1) * k];
+                    let dst = &mut jac[j * 3 * k + a * k..j * 3 * k + (a + 1) * k];
                     for (o, b) in dst.iter_mut().zip(row) {
                         *o += ua * b;
                     }
                 }
             }
         }
-        let jac = MatRef::from_row_major_slice(&jac_rows, n_r, 3 * k);
-        let dinv: Vec<f64> = (0..3 * k)
+        jac
+    }
+
+    /// The Gauss-Newton step of the readings' form at damping `mu` from
+    /// the Jacobian `jac` ([`ReducedObjective::readings_jacobian`]) and
+    /// the gradient `g`: `(2 (1 - lambda) J^T W J + D) delta = -g`, by the
+    /// Woodbury identity over the M readings,
+    /// `delta = -(y - D^-1 J^T W^1/2 S^-1 W^1/2 J y)`, `y = D^-1 g`,
+    /// `S = I + W^1/2 J D^-1 J^T W^1/2` (M x M; only its lower triangle is
+    /// formed, as `X X^T` with `X = W^1/2 J D^-1/2`). `None` if `S` is not
+    /// numerically definite or the step is not finite.
+    fn readings_solve(
+        &self,
+        fit: &ReadingsFit,
+        jac: &[f64],
+        g: &[f64],
+        mu: f64,
+    ) -> Option<Vec<f64>> {
+        let k = self.basis.k();
+        let n = 3 * k;
+        let n_r = fit.target.len();
+        let dinv: Vec<f64> = (0..n)
             .map(|j| 1.0 / (4.0 * self.lambda * self.basis.values()[j % k] + mu))
             .collect();
-        let jd = Mat::<f64>::from_fn(n_r, 3 * k, |r, j| jac[(r, j)] * dinv[j]);
-        let mut a = Mat::<f64>::zeros(n_r, n_r);
-        matmul(&mut a, Accum::Replace, &jd, jac.transpose(), 1.0, Par::Seq);
         let omega: Vec<f64> = fit
             .weight
             .iter()
             .map(|w| (2.0 * (1.0 - self.lambda) * w).max(0.0).sqrt())
             .collect();
-        let mut smat = Mat::<f64>::from_fn(n_r, n_r, |r, q| omega[r] * omega[q] * a[(r, q)]);
+        let sqrt_dinv: Vec<f64> = dinv.iter().map(|d| d.sqrt()).collect();
+        let mut x = vec![0.0; n_r * n];
+        for ((xr, jr), om) in x.chunks_exact_mut(n).zip(jac.chunks_exact(n)).zip(&omega) {
+            for ((o, j), s) in xr.iter_mut().zip(jr).zip(&sqrt_dinv) {
+                *o = om * j * s;
+            }
+        }
+        let xm = MatRef::from_row_major_slice(&x, n_r, n);
+        let mut smat = Mat::<f64>::zeros(n_r, n_r);
+        faer::linalg::matmul::triangular::matmul(
+            &mut smat,
+            faer::linalg::matmul::triangular::BlockStructure::TriangularLower,
+            Accum::Replace,
+            xm,
+            faer::linalg::matmul::triangular::BlockStructure::Rectangular,
+            xm.transpose(),
+            faer::linalg::matmul::triangular::BlockStructure::Rectangular,
+            1.0,
+            Par::Seq,
+        );
         for r in 0..n_r {
             smat[(r, r)] += 1.0;
         }
         let y: Vec<f64> = g.iter().zip(&dinv).map(|(g, d)| g * d).collect();
-        let mut z = Mat::<f64>::from_fn(n_r, 1, |r, _| {
-            omega[r] * (0..3 * k).map(|j| jac[(r, j)] * y[j]).sum::<f64>()
-        });
+        let mut z =
+            Mat::<f64>::from_fn(n_r, 1, |r, _| omega[r] * dot(&jac[r * n..(r + 1) * n], &y));
         smat.llt(Side::Lower).ok()?.solve_in_place(z.as_mut());
-        let delta: Vec<f64> = (0..3 * k)
-            .map(|j| {
-                let back: f64 = (0..n_r).map(|r| jac[(r, j)] * omega[r] * z[(r, 0)]).sum();
-                -(y[j] - dinv[j] * back)
-            })
+        // back = J^T W^1/2 z, a row at a time.
+        let mut back = vec![0.0; n];
+        for (r, jr) in jac.chunks_exact(n).enumerate() {
+            let s = omega[r] * z[(r, 0)];
+            if s != 0.0 {
+                for (b, j) in back.iter_mut().zip(jr) {
+                    *b += s * j;
+                }
+            }
+        }
+        let delta: Vec<f64> = y
+            .iter()
+            .zip(&dinv)
+            .zip(&back)
+            .map(|((y, d), b)| -(y - d * b))
             .collect();
         delta.iter().all(|v| v.is_finite()).then_some(delta)
     }
@@ -613,16 +679,28 @@ impl Objective for ReducedObjective<'_> {
 /// asking `watch(n)` before evaluation `n` as
 /// [`crate::lbfgs::minimise_watched`] does, with the stopping rules of
 /// [`crate::gauss_newton::minimise_vertices`] (the same `stop`; the
-/// model-error rule measured against the energy after the step). Returns
-/// the best coefficients and what the run did.
+/// model-error rule measured against the energy after the step), and,
+/// where `min_decrease_mm > 0` and `obj` knows its readings' energy
+/// ([`ReducedObjective::with_reading_energy`]), an absolute one: the run
+/// ends ([`Termination::DecreaseBelowReading`]) when an accepted step
+/// lowered the energy by at most what an error of `min_decrease_mm` on
+/// one reading costs, or before evaluating a step whose predicted decrease
+/// (the damped Gauss-Newton model's) is at most that. Returns the best
+/// coefficients and what the run did.
 ///
 /// Errors if the objective is not finite at `c0`.
 pub fn minimise_reduced(
     obj: &ReducedObjective<'_>,
     c0: Vec<f64>,
     stop: &GaussNewtonStop,
+    min_decrease_mm: f64,
     watch: &dyn Fn(u64) -> Control,
 ) -> Result<(Vec<f64>, RunInfo), MinimiseError> {
+    // The energy a step must gain to be worth its evaluation (0: none).
+    let abs_tol = match obj.per_mm2 {
+        Some(w) if min_decrease_mm > 0.0 => w * min_decrease_mm * min_decrease_mm,
+        _ => 0.0,
+    };
     let n = c0.len();
     let info = |iterations, evaluations, cost_start, cost_end, reason| RunInfo {
         iterations,
@@ -663,6 +741,8 @@ pub fn minimise_reduced(
     let mu_min = 1e-6 * scale;
     let mut mu = mu_min;
     let mut kernel: Option<(f64, Vec<f64>, Mat<f64>)> = None;
+    // The readings' Jacobian at `c`, kept until a step is accepted.
+    let mut readings_jac: Option<Vec<f64>> = None;
     let mut rejects = 0u32;
     let mut iterations = 0u64;
     let reason = loop {
@@ -674,7 +754,10 @@ pub fn minimise_reduced(
         }
         iterations += 1;
         let step = match &obj.readings {
-            Some(fit) => obj.readings_step(fit, &c, &g, mu),
+            Some(fit) => {
+                let jac = readings_jac.get_or_insert_with(|| obj.readings_jacobian(fit, &c));
+                obj.readings_solve(fit, jac, &g, mu)
+            }
             None => {
                 if kernel.as_ref().is_none_or(|k| k.0 != mu) {
                     let (dinv, kmat) = obj.kernel(mu);
@@ -693,6 +776,9 @@ pub fn minimise_reduced(
             continue;
         };
         let predicted = 0.5 * (-dot(&g, &delta) + mu * dot(&delta, &delta));
+        if predicted <= abs_tol {
+            break Termination::DecreaseBelowReading;
+        }
         for ((t, ci), di) in c_try.iter_mut().zip(&c).zip(&delta) {
             *t = ci + di;
         }
@@ -705,6 +791,7 @@ pub fn minimise_reduced(
             let decrease = f - f_try;
             std::mem::swap(&mut c, &mut c_try);
             std::mem::swap(&mut g, &mut g_try);
+            readings_jac = None;
             let f_prev = f;
             f = f_try;
             rejects = 0;
@@ -721,6 +808,9 @@ pub fn minimise_reduced(
             // minimum).
             if decrease <= tol || decrease * model_error <= stop.rel_cost_tol * f.abs() {
                 break Termination::RelativeChangeBelowTolerance;
+            }
+            if decrease <= abs_tol {
+                break Termination::DecreaseBelowReading;
             }
         } else {
             rejects += 1;

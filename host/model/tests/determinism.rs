@@ -138,6 +138,7 @@ fn smooth_basis_step_2_is_bit_identical_under_load() {
             fit,
             polish: 0,
             stop: Default::default(),
+            min_decrease_mm: tapeshape_model::DEFAULT_SMOOTH_MIN_DECREASE_MM,
         };
         let quiet = untimed(predict(&model, &targets, &s));
         let cores = std::thread::available_parallelism().map_or(2, |n| n.get());

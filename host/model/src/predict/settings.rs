@@ -210,6 +210,20 @@ pub enum Step2Solver {
         polish: u64,
         /// Its stopping rules (those of [`Step2Solver::GaussNewton`]).
         stop: GaussNewtonStop,
+        /// A round also ends when an accepted step lowers the energy by
+        /// less than an error of this many millimetres on one reading
+        /// (at the reference tolerance) costs, or when the Gauss-Newton
+        /// model predicts less than that for the next step (0: only
+        /// `stop`'s rules). Applies with the per-measurement weighting,
+        /// whose energy is about `(1 - lambda) reading_weight` per mm^2
+        /// of a reading's error; the paper's `E_m` has no such scale.
+        /// Why: where the readings and soft targets contradict each other
+        /// the energy levels off far above zero and the first-order model
+        /// of each length takes a step after step that each gains under
+        /// 1e-4 of it, moving the body by hundredths of a millimetre
+        /// (`docs/results/predict-bench.md`, 2026-12-06, night).
+        #[serde(default)]
+        min_decrease_mm: f64,
     },
 }
 
@@ -233,6 +247,11 @@ pub const DEFAULT_SMOOTH_MODES: usize = 200;
 /// where not chosen otherwise ([`Step2Solver::smooth_basis`]).
 pub const DEFAULT_SMOOTH_POLISH: u64 = 0;
 
+/// The smooth-basis solver's `min_decrease_mm` where not chosen otherwise
+/// ([`Step2Solver::smooth_basis`]): a step worth less than a tenth of a
+/// millimetre on one reading ends the round.
+pub const DEFAULT_SMOOTH_MIN_DECREASE_MM: f64 = 0.1;
+
 impl Step2Solver {
     /// [`Step2Solver::SmoothBasis`] with [`DEFAULT_SMOOTH_MODES`] modes and
     /// the Gauss-Newton stopping rules.
@@ -242,6 +261,7 @@ impl Step2Solver {
             fit: SmoothFit::Readings,
             polish: DEFAULT_SMOOTH_POLISH,
             stop: GaussNewtonStop::default(),
+            min_decrease_mm: DEFAULT_SMOOTH_MIN_DECREASE_MM,
         }
     }
 
@@ -657,6 +677,9 @@ pub(crate) enum Step2Method {
         fit: SmoothFit,
         polish: Option<Lbfgs>,
         stop: GaussNewtonStop,
+        /// Energy per mm^2 of one reading's error is scaled by this many
+        /// mm^2 into the absolute stopping rule (0: none).
+        min_decrease_mm: f64,
     },
 }
 
@@ -900,6 +923,7 @@ fn step2_method(solver: &Step2Solver) -> Result<Step2Method, SettingsError> {
             fit,
             polish,
             stop,
+            min_decrease_mm,
         } => {
             if modes == 0 {
                 return Err(SettingsError::Zero {
@@ -908,6 +932,7 @@ fn step2_method(solver: &Step2Solver) -> Result<Step2Method, SettingsError> {
             }
             non_negative("step 2's smooth-basis rel_cost_tol", stop.rel_cost_tol)?;
             non_negative("step 2's smooth-basis grad_tol", stop.grad_tol)?;
+            non_negative("step 2's smooth-basis min_decrease_mm", min_decrease_mm)?;
             Step2Method::SmoothBasis {
                 modes,
                 fit,
@@ -919,6 +944,7 @@ fn step2_method(solver: &Step2Solver) -> Result<Step2Method, SettingsError> {
                     line_search: LineSearch::Backtracking,
                 }),
                 stop,
+                min_decrease_mm,
             }
         }
     })

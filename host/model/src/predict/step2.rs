@@ -58,7 +58,7 @@ use super::folds;
 use super::progress::{in_run, in_run_every, PredictObserver, PredictProgress, PredictStage};
 use super::readings::Readings;
 use super::rounds::{run_rounds, thresholds, RoundEnd, RoundLog, RoundStep, RoundsSummary};
-use super::settings::{RoundsConfig, SmoothFit, Step2Config, Step2Method};
+use super::settings::{EnergyWeighting, RoundsConfig, SmoothFit, Step2Config, Step2Method};
 use super::step1::Step1Shape;
 use super::terms::{to_m, to_mm};
 use super::warning::Warning;
@@ -197,7 +197,11 @@ impl RoundStep for Step2Rounds<'_> {
             ),
             (
                 Step2Method::SmoothBasis {
-                    stop, polish, fit, ..
+                    stop,
+                    polish,
+                    fit,
+                    min_decrease_mm,
+                    ..
                 },
                 Some(basis),
             ) => {
@@ -219,7 +223,12 @@ impl RoundStep for Step2Rounds<'_> {
                 if *fit == SmoothFit::Readings {
                     obj = obj.fit_readings(&owner);
                 }
-                match minimise_reduced(&obj, vec![0.0; obj.len()], stop, &watch) {
+                if let (EnergyWeighting::PerMeasurement, w) = self.config.weighting {
+                    if w.is_finite() && w > 0.0 {
+                        obj = obj.with_reading_energy(w);
+                    }
+                }
+                match minimise_reduced(&obj, vec![0.0; obj.len()], stop, *min_decrease_mm, &watch) {
                     Ok((c, info)) if info.reason != Termination::Interrupted => {
                         let mut x = vec![0.0; self.x_mm.len()];
                         obj.vertices(&self.x_mm, &c, &mut x);

@@ -175,6 +175,7 @@ fn reduced_gauss_newton_reaches_the_lbfgs_minimum() {
             &obj,
             vec![0.0; obj.len()],
             &GaussNewtonStop::default(),
+            0.0,
             &|_| Control::Continue,
         )
         .unwrap();
@@ -214,6 +215,7 @@ fn deterministic() {
             &obj,
             vec![0.0; obj.len()],
             &GaussNewtonStop::default(),
+            0.0,
             &|_| Control::Continue,
         )
         .unwrap()
@@ -239,7 +241,7 @@ fn cancel_before_the_first_evaluation() {
         0.1,
     );
     let c0 = vec![0.5; obj.len()];
-    let (c, info) = minimise_reduced(&obj, c0.clone(), &GaussNewtonStop::default(), &|_| {
+    let (c, info) = minimise_reduced(&obj, c0.clone(), &GaussNewtonStop::default(), 0.0, &|_| {
         Control::Cancel
     })
     .unwrap();
@@ -282,6 +284,7 @@ fn readings_fit_gradient_and_minimum() {
         &obj,
         vec![0.0; obj.len()],
         &GaussNewtonStop::default(),
+        0.0,
         &|_| Control::Continue,
     )
     .unwrap();
@@ -383,4 +386,105 @@ fn vertices_are_the_start_plus_the_basis_times_the_coefficients() {
         x.iter().zip(&x0).any(|(a, b)| a != b),
         "the coefficients move the mesh"
     );
+}
+
+/// The readings' Gauss-Newton step (its system formed as a lower
+/// triangle, its Jacobian kept across a refused step) solves the dense
+/// system `(2 (1 - lambda) J^T W J + diag(4 lambda sigma + mu)) delta = -g`
+/// built here entry by entry from the same Jacobian, at two dampings.
+#[test]
+fn readings_step_solves_the_dense_system() {
+    let w = 8;
+    let (reference, edges) = grid(w, 5);
+    let n = reference.len() / 3;
+    let basis = SmoothBasis::compute(n, &edges, 24).unwrap();
+    let obj = ReducedObjective::new(
+        terms(&reference, w, 1.04),
+        &basis,
+        &edges,
+        &reference,
+        &reference,
+        0.1,
+    )
+    .fit_readings(&OWNER);
+    let fit = obj.readings.as_ref().unwrap();
+    let c = random(obj.len(), 9, 0.4);
+    let mut g = vec![0.0; obj.len()];
+    obj.eval(&c, &mut g);
+    let jac = obj.readings_jacobian(fit, &c);
+    let nn = obj.len();
+    let k = basis.k();
+    let scale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for mu in [1e-4, 3.0] {
+        let delta = obj.readings_solve(fit, &jac, &g, mu).unwrap();
+        for i in 0..nn {
+            let mut hd = (4.0 * 0.1 * basis.values()[i % k] + mu) * delta[i];
+            for (r, w_r) in fit.weight.iter().enumerate() {
+                let jr = &jac[r * nn..(r + 1) * nn];
+                let jd: f64 = jr.iter().zip(&delta).map(|(a, b)| a * b).sum();
+                hd += 2.0 * 0.9 * w_r * jr[i] * jd;
+            }
+            assert!(
+                (hd + g[i]).abs() <= 1e-8 * scale,
+                "mu {mu}, {i}: (H delta + g) = {}",
+                hd + g[i]
+            );
+        }
+    }
+}
+
+/// The absolute stopping rule: told its readings' energy scale, a run
+/// with `min_decrease_mm` ends on it, in fewer iterations than the run to
+/// the relative tolerance, at an energy above that run's by less than
+/// what a few tenths of a millimetre on one reading cost; without the
+/// scale (or with 0 mm) the rule is off and the run is the plain one.
+#[test]
+fn min_decrease_ends_the_run_within_a_reading_tolerance() {
+    let w = 8;
+    let (reference, edges) = grid(w, 5);
+    let n = reference.len() / 3;
+    let basis = SmoothBasis::compute(n, &edges, 24).unwrap();
+    let make = || {
+        ReducedObjective::new(
+            terms(&reference, w, 1.06),
+            &basis,
+            &edges,
+            &reference,
+            &reference,
+            0.1,
+        )
+        .fit_readings(&OWNER)
+    };
+    let run = |obj: &ReducedObjective<'_>, mm: f64| {
+        minimise_reduced(
+            obj,
+            vec![0.0; obj.len()],
+            &GaussNewtonStop::default(),
+            mm,
+            &|_| Control::Continue,
+        )
+        .unwrap()
+    };
+    let plain = make();
+    let (c_full, full) = run(&plain, 0.0);
+    // The rule needs the scale: without it 0.1 mm changes nothing.
+    let (c_unscaled, unscaled) = run(&plain, 0.1);
+    assert_eq!(c_unscaled, c_full);
+    assert_eq!(unscaled.iterations, full.iterations);
+    // The test's terms weigh each reading about 1e4 per mm^2 (the segment
+    // weights of `terms`); with that scale a 0.1 mm step is 90 units.
+    let reading_weight = 1e4;
+    let scaled = make().with_reading_energy(reading_weight);
+    let (c_off, off) = run(&scaled, 0.0);
+    assert_eq!(c_off, c_full, "0 mm: the rule is off");
+    assert_eq!(off.iterations, full.iterations);
+    let (_, early) = run(&scaled, 0.1);
+    let per_mm2 = 0.9 * reading_weight;
+    assert!(early.cost_end >= full.cost_end - 1e-9 * full.cost_end.abs());
+    assert!(
+        early.cost_end - full.cost_end <= per_mm2 * 0.3 * 0.3,
+        "{early:?} vs {full:?}"
+    );
+    assert_eq!(early.reason, Termination::DecreaseBelowReading, "{early:?}");
+    assert!(early.iterations < full.iterations, "{early:?} vs {full:?}");
 }
