@@ -233,28 +233,24 @@ impl Estimator {
         // the same real-people statistic twice, twice the weight of any
         // other, and cost step 2 a reading more. The one named as the
         // column (the ansur set's) is kept, else the first.
+        let def = |j: usize| &self.set.definitions[j];
+        let named_as_column = |j: usize| def(j).ansur.as_deref() == Some(def(j).name.as_str());
         let wanted: Vec<(usize, usize)> = wanted
             .iter()
             .copied()
             .filter(|&(j, _)| {
-                let column = self.set.definitions[j].ansur.as_deref();
-                let same: Vec<usize> = wanted
+                let Some(column) = def(j).ansur.as_deref() else {
+                    return true;
+                };
+                let mut same = wanted
                     .iter()
                     .map(|&(i, _)| i)
-                    .filter(|&i| {
-                        column.is_some() && self.set.definitions[i].ansur.as_deref() == column
-                    })
-                    .collect();
+                    .filter(|&i| def(i).ansur.as_deref() == Some(column));
                 let keep = same
-                    .iter()
-                    .copied()
-                    .find(|&i| {
-                        self.set.definitions[i].ansur.as_deref()
-                            == Some(self.set.definitions[i].name.as_str())
-                    })
-                    .or(same.first().copied())
-                    .unwrap_or(j);
-                keep == j
+                    .clone()
+                    .find(|&i| named_as_column(i))
+                    .or_else(|| same.next());
+                keep == Some(j)
             })
             .collect();
         if wanted.is_empty() || real.is_empty() {

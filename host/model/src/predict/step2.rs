@@ -223,10 +223,9 @@ impl RoundStep for Step2Rounds<'_> {
                 if *fit == SmoothFit::Readings {
                     obj = obj.fit_readings(&owner);
                 }
+                // The settings checked `w` positive.
                 if let (EnergyWeighting::PerMeasurement, w) = self.config.weighting {
-                    if w.is_finite() && w > 0.0 {
-                        obj = obj.with_reading_energy(w);
-                    }
+                    obj = obj.with_reading_energy(w);
                 }
                 match minimise_reduced(&obj, vec![0.0; obj.len()], stop, *min_decrease_mm, &watch) {
                     Ok((c, info)) if info.reason != Termination::Interrupted => {
