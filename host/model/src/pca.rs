@@ -361,26 +361,9 @@ impl Pca {
                 .collect();
         }
         let scaled: Vec<f64> = w.iter().zip(&self.sigma).map(|(a, b)| a * b).collect();
-        fn points<T: Copy + Into<f64>>(
-            mean: &[f64],
-            basis: &[T],
-            k: usize,
-            s: &[f64],
-        ) -> Vec<[f64; 3]> {
-            crate::kernels::clear_upper_registers();
-            let dot = crate::lbfgs::dot_widened::<T>;
-            mean.chunks_exact(3)
-                .zip(basis.chunks_exact(3 * k))
-                .map(|(m, rows)| {
-                    let (r0, rest) = rows.split_at(k);
-                    let (r1, r2) = rest.split_at(k);
-                    [m[0] + dot(r0, s), m[1] + dot(r1, s), m[2] + dot(r2, s)]
-                })
-                .collect()
-        }
         match self.basis_f32() {
-            Some(b) => points(&self.mean, b, k, &scaled),
-            None => points(&self.mean, self.basis(), k, &scaled),
+            Some(b) => crate::kernels::points(&self.mean, b, k, &scaled),
+            None => crate::kernels::points(&self.mean, self.basis(), k, &scaled),
         }
     }
 
@@ -389,23 +372,10 @@ impl Pca {
     pub fn project(&self, x: &[f64]) -> Vec<f64> {
         let k = self.n_components;
         assert_eq!(x.len(), self.dim(), "shape must have D entries");
-        crate::kernels::clear_upper_registers();
-        fn accumulate<T: Copy + Into<f64>>(x: &[f64], mean: &[f64], basis: &[T], w: &mut [f64]) {
-            let k = w.len();
-            for (r, (xr, m)) in x.iter().zip(mean).enumerate() {
-                let dx = xr - m;
-                let row = &basis[r * k..(r + 1) * k];
-                for (wj, a) in w.iter_mut().zip(row) {
-                    *wj += (*a).into() * dx;
-                }
-            }
-        }
         let mut w = vec![0.0; k];
-        if k > 0 {
-            match self.basis_f32() {
-                Some(b) => accumulate(x, &self.mean, b, &mut w),
-                None => accumulate(x, &self.mean, self.basis(), &mut w),
-            }
+        match self.basis_f32() {
+            Some(b) => crate::kernels::accumulate_rows(x, &self.mean, b, &mut w),
+            None => crate::kernels::accumulate_rows(x, &self.mean, self.basis(), &mut w),
         }
         for (wj, s) in w.iter_mut().zip(&self.sigma) {
             *wj /= s;
