@@ -172,12 +172,18 @@ impl PartCut {
             }
         };
         for te in &self.tri_edges {
-            let c: Vec<u32> = te
-                .iter()
-                .map(|&e| cross_of[e as usize])
-                .filter(|&c| c != u32::MAX)
-                .collect();
-            if c.len() == 2 {
+            // The triangle's crossed edges (no list per triangle: this loop
+            // runs over every triangle of the part at every cut).
+            let mut c = [u32::MAX; 3];
+            let mut n = 0;
+            for &e in te {
+                let x = cross_of[e as usize];
+                if x != u32::MAX {
+                    c[n] = x;
+                    n += 1;
+                }
+            }
+            if n == 2 {
                 add(c[0], c[1]);
                 add(c[1], c[0]);
             }
