@@ -20,7 +20,7 @@
 //!
 //! Every experiment takes the prediction settings as flags (see
 //! `settings_from_args`): `--paper` for the paper's exact pipeline, and
-//! `--gn`, `--w1`, `--w2`, `--w2-scale`, `--prior`, `--k1`, `--box`,
+//! `--gn`, `--gn-min-decrease MM`, `--w1`, `--w2`, `--w2-scale`, `--prior`, `--k1`, `--box`,
 //! `--cont`, `--cont-iters1 N|solver`, `--budget`, `--iters1`, `--iters2`, `--solver2 lbfgs|gn|smooth|smooth:MODES[:POLISH]` (step 2's
 //! solver), `--first none|smooth` (a step-2 solver tried first, kept when it
 //! meets every reading), `--l`, `--lambda`, `--s`.
@@ -701,10 +701,13 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
         // Keeps the reading noise / prior the current solver had.
         let tau = match s.step1.solver {
             Step1Solver::Lbfgs { prior_mm } => prior_mm,
-            Step1Solver::GaussNewtonMap { tau_mm } => tau_mm,
+            Step1Solver::GaussNewtonMap { tau_mm, .. } => tau_mm,
         };
         s.step1.solver = match v.as_str() {
-            "on" => Step1Solver::GaussNewtonMap { tau_mm: tau },
+            "on" => Step1Solver::GaussNewtonMap {
+                tau_mm: tau,
+                min_decrease_mm: tapeshape_model::predict::DEFAULT_STEP1_MIN_DECREASE_MM,
+            },
             "off" => Step1Solver::Lbfgs { prior_mm: tau },
             _ => return Err(format!("--gn {v}: on or off").into()),
         };
@@ -713,8 +716,23 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
         let tau = Some(v.parse()?);
         s.step1.solver = match s.step1.solver {
             Step1Solver::Lbfgs { .. } => Step1Solver::Lbfgs { prior_mm: tau },
-            Step1Solver::GaussNewtonMap { .. } => Step1Solver::GaussNewtonMap { tau_mm: tau },
+            Step1Solver::GaussNewtonMap {
+                min_decrease_mm, ..
+            } => Step1Solver::GaussNewtonMap {
+                tau_mm: tau,
+                min_decrease_mm,
+            },
         };
+    }
+    if let Some(v) = arg(args, "--gn-min-decrease") {
+        match &mut s.step1.solver {
+            Step1Solver::GaussNewtonMap {
+                min_decrease_mm, ..
+            } => *min_decrease_mm = v.parse()?,
+            Step1Solver::Lbfgs { .. } => {
+                return Err("--gn-min-decrease needs step 1's Gauss-Newton (--gn on)".into())
+            }
+        }
     }
     let weighting = |v: &str| match v {
         "paper" => Ok(EnergyWeighting::Paper),

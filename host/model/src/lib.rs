@@ -58,7 +58,7 @@ pub use predict::{
     PlausibilityLabel, PredictConfig, PredictObserver, PredictProgress, PredictSettings,
     PredictStage, Prediction, PredictionReport, Readings, Round, SettingsError, SmoothFit,
     StageTimings, StartMethod, Step1Clamp, Step1Settings, Step1Solver, Step2Settings, Step2Solver,
-    Step2Weighting, Target, Warning, DEFAULT_SMOOTH_MIN_DECREASE_MM,
+    Step2Weighting, Target, Warning, DEFAULT_SMOOTH_MIN_DECREASE_MM, DEFAULT_STEP1_MIN_DECREASE_MM,
 };
 pub use tapeshape_measure::{Measured, Support, SupportPoint};
 

@@ -26,10 +26,15 @@ fn a_report_of_the_flat_settings_record_reads_back_as_the_default() {
     then.step2.first = None;
     then.step2.fold_repair = false;
     then.step2.soft_pull = 0.0;
-    // And its step-1 continuation rounds ran step 1's own iteration cap.
+    // And its step-1 continuation rounds ran step 1's own iteration cap,
+    // and its Gauss-Newton rounds measured every step.
     if let Some(c) = then.continuation.as_mut() {
         c.step1_max_iters = None;
     }
+    then.step1.solver = Step1Solver::GaussNewtonMap {
+        tau_mm: None,
+        min_decrease_mm: 0.0,
+    };
     assert_eq!(r.settings, then);
     assert!(r.settings.resolve().is_ok());
     assert_eq!(r.step1_runs.len(), 3);
@@ -104,6 +109,16 @@ fn every_old_setting_maps_to_its_stage() {
         "reference_tolerance": 0.001, "warn_error_mm": 5.0}"#;
     let s: PredictSettings = serde_json::from_str(oldest).unwrap();
     assert_eq!(s, PredictSettings::paper());
+    // A step-1 Gauss-Newton record from before `min_decrease_mm` measured
+    // every step.
+    let gn: Step1Solver = serde_json::from_str(r#"{"GaussNewtonMap": {"tau_mm": null}}"#).unwrap();
+    assert_eq!(
+        gn,
+        Step1Solver::GaussNewtonMap {
+            tau_mm: None,
+            min_decrease_mm: 0.0
+        }
+    );
     // Garbage is an error, not a default.
     assert!(serde_json::from_str::<PredictSettings>(r#"{"l": 3.0}"#).is_err());
 }

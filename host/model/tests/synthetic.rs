@@ -116,7 +116,10 @@ fn refinement_keeps_in_family_bodies_as_close_as_the_start() {
     let mut s = 4242;
     let mean = model.shape(&vec![0.0; model.n_components()]).unwrap();
     let mut settings = PredictSettings::default();
-    settings.step1.solver = Step1Solver::GaussNewtonMap { tau_mm: Some(0.01) };
+    settings.step1.solver = Step1Solver::GaussNewtonMap {
+        tau_mm: Some(0.01),
+        min_decrease_mm: tapeshape_model::DEFAULT_STEP1_MIN_DECREASE_MM,
+    };
     let settings = cfg(&settings);
     let (mut d_start, mut d_final, mut d_mean) = (0.0, 0.0, 0.0);
     let n = 10;
@@ -152,6 +155,57 @@ fn refinement_keeps_in_family_bodies_as_close_as_the_start() {
         d_final < 0.05 * d_mean,
         "final {d_final} mm vs mean shape {d_mean} mm"
     );
+}
+
+/// Step 1's Gauss-Newton `min_decrease_mm`: a round whose solve gains less
+/// than the threshold keeps its weights and measures nothing (recorded as
+/// such); without it the same rounds step. The threshold is in millimetres
+/// of one reading's error, so it scales with the reading noise tau.
+#[test]
+fn a_gauss_newton_round_worth_less_than_its_threshold_keeps_the_weights() {
+    let model = train(60, 2);
+    let topo = topology();
+    let mut s = 31;
+    let body = tube(&random_params(&mut s));
+    let targets: Vec<Option<Target>> = measure_all(&body)
+        .into_iter()
+        .map(|v| Some(Target::exact(v)))
+        .collect();
+    let run = |min_decrease_mm: f64| {
+        let mut settings = PredictSettings::default();
+        settings.step1.solver = Step1Solver::GaussNewtonMap {
+            tau_mm: Some(0.01),
+            min_decrease_mm,
+        };
+        // No continuation: only the s Gauss-Newton rounds move the weights.
+        settings.continuation = None;
+        model
+            .predict(&targets, &TubeMeasurer, &topo, &cfg(&settings))
+            .unwrap()
+            .report
+    };
+    let stepped = run(0.0);
+    let reasons: Vec<_> = stepped
+        .step1_runs
+        .iter()
+        .map(|r| r.reason.clone())
+        .collect();
+    assert!(
+        reasons
+            .iter()
+            .all(|r| *r != tapeshape_model::Termination::DecreaseBelowReading)
+            && matches!(reasons[0], tapeshape_model::Termination::GaussNewton { .. }),
+        "{reasons:?}"
+    );
+    assert_ne!(stepped.weights_step1, stepped.weights_start);
+    // 1 m of error on one reading: no round is worth measuring.
+    let kept = run(1000.0);
+    assert_eq!(kept.step1_runs.len(), 3);
+    for r in &kept.step1_runs {
+        assert_eq!(r.reason, tapeshape_model::Termination::DecreaseBelowReading);
+        assert!(r.cost_end == r.cost_start && r.iterations > 0);
+    }
+    assert_eq!(kept.weights_step1, kept.weights_start);
 }
 
 #[test]

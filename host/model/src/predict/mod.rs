@@ -63,7 +63,7 @@ pub use settings::{
     RoundsConfig, SettingsError, SmoothFit, StartConfig, Step1Clamp, Step1Config, Step1Settings,
     Step1Solver, Step2Config, Step2Settings, Step2Solver, Step2Weighting, DEFAULT_MAX_EVALUATIONS,
     DEFAULT_SMOOTH_MIN_DECREASE_MM, DEFAULT_SMOOTH_MODES, DEFAULT_SMOOTH_POLISH,
-    DEFAULT_STEP1_CONTINUATION_ITERS,
+    DEFAULT_STEP1_CONTINUATION_ITERS, DEFAULT_STEP1_MIN_DECREASE_MM,
 };
 pub use start::{StartMethod, StartShape};
 pub use step1::Step1Shape;

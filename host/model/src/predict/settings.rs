@@ -93,8 +93,24 @@ pub enum Step1Solver {
         /// tolerance. `None`: the reference tolerance (1 mm). Measured on 50
         /// held-out bodies: `docs/results/predict-sreal.md`.
         tau_mm: Option<f64>,
+        /// A round whose Gauss-Newton solve (supports held) lowers the
+        /// objective by at most what an error of this many millimetres on
+        /// one exact reading costs, `(min_decrease_mm / tau)^2`, keeps its
+        /// weights without measuring the step (0: every step is measured,
+        /// what reports older than this field ran). Why: the last of the
+        /// `s` rounds mostly finds the previous round's answer again, and
+        /// measuring its step (a pass over the basis and every support,
+        /// twice where the backtracking halves it) cost more than the
+        /// round gained (`docs/results/predict-bench.md`, 2026-12-07).
+        #[serde(default)]
+        min_decrease_mm: f64,
     },
 }
+
+/// Step 1's Gauss-Newton `min_decrease_mm` where not chosen otherwise: the
+/// same tenth of a millimetre as step 2's smooth basis
+/// ([`DEFAULT_SMOOTH_MIN_DECREASE_MM`]).
+pub const DEFAULT_STEP1_MIN_DECREASE_MM: f64 = 0.1;
 
 /// Where step 1 holds the weights to `[-l, l]`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -389,7 +405,10 @@ impl Default for PredictSettings {
             s: 3,
             reference_tolerance: 0.001,
             step1: Step1Settings {
-                solver: Step1Solver::GaussNewtonMap { tau_mm: None },
+                solver: Step1Solver::GaussNewtonMap {
+                    tau_mm: None,
+                    min_decrease_mm: DEFAULT_STEP1_MIN_DECREASE_MM,
+                },
                 weighting: EnergyWeighting::PerMeasurement,
                 clamp: Step1Clamp::InsideBox,
                 components: None,
@@ -611,6 +630,9 @@ pub(crate) enum Step1Method {
         tau_mm: f64,
         /// Gauss-Newton iterations per round.
         max_iters: usize,
+        /// A round's solve lowering the objective by at most this keeps
+        /// the weights unmeasured (`(min_decrease_mm / tau)^2`, 0: never).
+        min_decrease: f64,
         /// The L-BFGS rounds (their prior is always `tau_mm`).
         lbfgs: LbfgsRounds,
     },
@@ -746,14 +768,20 @@ impl PredictConfig {
                     None => Step1Prior::None,
                 },
             }),
-            Step1Solver::GaussNewtonMap { tau_mm } => {
+            Step1Solver::GaussNewtonMap {
+                tau_mm,
+                min_decrease_mm,
+            } => {
                 let tau = match tau_mm {
                     Some(t) => positive("step 1's tau_mm", t)?,
                     None => reference_mm,
                 };
+                let min_decrease_mm =
+                    non_negative("step 1's Gauss-Newton min_decrease_mm", min_decrease_mm)?;
                 Step1Method::GaussNewtonMap {
                     tau_mm: tau,
                     max_iters: usize::try_from(stop1.max_iters).unwrap_or(usize::MAX),
+                    min_decrease: (min_decrease_mm / tau).powi(2),
                     lbfgs: LbfgsRounds {
                         solver: lbfgs1,
                         weighting: s1.weighting,

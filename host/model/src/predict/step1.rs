@@ -10,7 +10,9 @@
 //! * the default's, the MAP estimate `sum_j ((m_j - T_j) / sd_j)^2 + |w|^2`
 //!   by Gauss-Newton on the readings' values ([`crate::map`],
 //!   [`super::Step1Solver::GaussNewtonMap`]), each step backtracked on the
-//!   re-measured objective; a round it cannot improve, and every
+//!   re-measured objective (a round whose solve gains less than an error
+//!   of `min_decrease_mm` on one reading costs keeps its weights without
+//!   measuring the step); a round it cannot improve, and every
 //!   continuation round (at most [`super::Continuation::step1_max_iters`]
 //!   iterations there), run L-BFGS on `E_m` with the same prior;
 //!
@@ -111,14 +113,16 @@ impl Step1Rounds<'_> {
         self.lbfgs().solver.stop.max_iters
     }
 
-    /// One Gauss-Newton MAP round (see [`crate::map`]): returns whether its
-    /// step lowered the re-measured objective (else the round runs L-BFGS).
+    /// One Gauss-Newton MAP round (see [`crate::map`]): returns whether the
+    /// round is done (its step lowered the re-measured objective, or the
+    /// solve found nothing worth `min_decrease` to measure); else the round
+    /// runs L-BFGS.
     fn gauss_newton_round(
         &mut self,
         measured: &[Measured],
         terms: &[crate::energy::SegmentTerm],
         owner: Vec<usize>,
-        max_iters: usize,
+        (max_iters, min_decrease): (usize, f64),
         log: &mut RoundLog,
     ) -> Result<bool> {
         let (local, rows, base) = self.model.local_basis(terms);
@@ -132,6 +136,20 @@ impl Step1Rounds<'_> {
             self.map_sd.clone(),
         );
         let (w_gn, run) = problem.solve(&self.w, &self.held, max_iters, 1e-12);
+        if min_decrease > 0.0 && run.objective.0 - run.objective.1 <= min_decrease {
+            // With the supports held the step gains at most what a tenth
+            // of a millimetre on one reading costs: the weights stay and
+            // nothing is measured (the gain is the same order as what
+            // re-measuring moves the supports).
+            log.runs.push(RunInfo {
+                iterations: run.iterations as u64,
+                evaluations: run.iterations as u64,
+                cost_start: run.objective.0,
+                cost_end: run.objective.0,
+                reason: Termination::DecreaseBelowReading,
+            });
+            return Ok(true);
+        }
         // The solve holds this round's supports fixed; where a support
         // changes under the step (a hull gains or loses points, a landmark
         // plane moves), the real values differ from the linearised ones.
@@ -254,10 +272,21 @@ impl RoundStep for Step1Rounds<'_> {
         // reading still misses, typically where a support changes too
         // much under the step for the linearisation to hold) are L-BFGS
         // rounds on E_m with the same prior.
-        if let Step1Method::GaussNewtonMap { max_iters, .. } = self.config.solver {
+        if let Step1Method::GaussNewtonMap {
+            max_iters,
+            min_decrease,
+            ..
+        } = self.config.solver
+        {
             if round < self.s {
                 report(observer, at)?;
-                if self.gauss_newton_round(measured, &terms, owner, max_iters, log)? {
+                if self.gauss_newton_round(
+                    measured,
+                    &terms,
+                    owner,
+                    (max_iters, min_decrease),
+                    log,
+                )? {
                     return Ok(RoundEnd::Ran);
                 }
             }

@@ -7,7 +7,8 @@ fn default_and_paper_resolve() {
     let d = PredictSettings::default().resolve().unwrap();
     assert!(matches!(
         d.step1().solver,
-        Step1Method::GaussNewtonMap { tau_mm, max_iters: 100, .. } if tau_mm == 1.0
+        Step1Method::GaussNewtonMap { tau_mm, max_iters: 100, min_decrease, .. }
+            if tau_mm == 1.0 && (min_decrease - 0.01).abs() < 1e-15
     ));
     assert_eq!(d.step1().box_l, Some(3.0));
     assert_eq!(d.step2().weighting, (EnergyWeighting::PerMeasurement, 1e4));
@@ -106,12 +107,26 @@ fn bad_values_are_refused_when_resolved_naming_the_setting() {
                 step1: Step1Settings {
                     solver: Step1Solver::GaussNewtonMap {
                         tau_mm: Some(f64::INFINITY),
+                        min_decrease_mm: 0.1,
                     },
                     ..PredictSettings::default().step1
                 },
                 ..Default::default()
             },
             "tau_mm",
+        ),
+        (
+            PredictSettings {
+                step1: Step1Settings {
+                    solver: Step1Solver::GaussNewtonMap {
+                        tau_mm: None,
+                        min_decrease_mm: -0.1,
+                    },
+                    ..PredictSettings::default().step1
+                },
+                ..Default::default()
+            },
+            "min_decrease_mm",
         ),
         (
             PredictSettings {

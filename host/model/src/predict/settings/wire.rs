@@ -118,6 +118,7 @@ impl From<FlatWire> for PredictSettings {
                 solver: if f.step1_gauss_newton {
                     Step1Solver::GaussNewtonMap {
                         tau_mm: f.step1_prior_mm,
+                        min_decrease_mm: 0.0,
                     }
                 } else {
                     Step1Solver::Lbfgs {
