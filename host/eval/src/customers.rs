@@ -678,6 +678,26 @@ for information)"
         s,
         "\nFlipped triangles over all bodies: {flipped}; collapsed: {collapsed}."
     );
+    let mut folded: Vec<&PersonResult> = run
+        .people
+        .iter()
+        .filter(|p| p.flipped + p.collapsed > 0)
+        .collect();
+    if !folded.is_empty() {
+        folded.sort_by_key(|p| std::cmp::Reverse(p.flipped + p.collapsed));
+        let most: Vec<String> = folded
+            .iter()
+            .take(10)
+            .map(|p| format!("{} ({})", p.id, p.flipped + p.collapsed))
+            .collect();
+        let _ = writeln!(
+            s,
+            "Bodies with a flipped or collapsed triangle: {} of {}; the most: {}.",
+            folded.len(),
+            run.people.len(),
+            most.join(", ")
+        );
+    }
     let refused: Vec<String> = run
         .people
         .iter()

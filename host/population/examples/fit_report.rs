@@ -37,6 +37,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             100.0 * *ok as f64 / n
         );
     }
+    // The fitted drivers: where the fit left them, and how many bodies
+    // have them at the end of their range (a driver at its bound cannot
+    // move its dimension further).
+    println!("\n| driver | mean | at -1 | at +1 |\n|---|---|---|---|");
+    for (_, driver) in tapeshape_population::generate::FIT_TARGETS
+        .iter()
+        .chain(tapeshape_population::generate::EXTRA_FIT_TARGETS)
+        .filter(|(_, d)| !d.starts_with('@'))
+    {
+        let v: Vec<f64> = d
+            .header
+            .bodies
+            .iter()
+            .filter_map(|b| b.local_changes.get(*driver).copied())
+            .collect();
+        if v.is_empty() {
+            continue;
+        }
+        let n = v.len() as f64;
+        println!(
+            "| {driver} | {:+.2} | {:.0} % | {:.0} % |",
+            v.iter().sum::<f64>() / n,
+            100.0 * v.iter().filter(|x| **x <= -0.999).count() as f64 / n,
+            100.0 * v.iter().filter(|x| **x >= 0.999).count() as f64 / n
+        );
+    }
     iters.sort_unstable();
     println!(
         "\n{} bodies; iterations median {}",
