@@ -142,6 +142,26 @@ mod avx {
         unsafe { _mm256_loadu_pd(c.as_ptr()) }
     }
 
+    /// Cache lines of the next block to prefetch at each 4-entry step of
+    /// a block of `entries` basis entries of type `T` whose rows are `k`
+    /// long: the whole next block, spread evenly over the steps (two lines
+    /// a step for the f32 basis's blocks with k = 100).
+    fn prefetch_per_step<T>(entries: usize, k: usize) -> usize {
+        let lines = (entries * std::mem::size_of::<T>()).div_ceil(64);
+        let steps = (k / 4).max(1);
+        lines.div_ceil(steps)
+    }
+
+    /// Prefetches line `p` of step `step` of the block starting at `next`
+    /// (`per_step` lines a step; a prefetch past the end of the basis is
+    /// dropped, not a fault).
+    #[target_feature(enable = "avx")]
+    fn prefetch_next(next: *const i8, step: usize, per_step: usize) {
+        for p in 0..per_step {
+            _mm_prefetch::<_MM_HINT_T0>(next.wrapping_add((step * per_step + p) * 64));
+        }
+    }
+
     /// Rows taken two at a time (six independent sums), the next pair's
     /// lines prefetched.
     #[target_feature(enable = "avx")]
@@ -175,16 +195,10 @@ mod avx {
         assert!(rows.len() >= N * k && out.len() >= N && c.iter().all(|c| c.len() >= k));
         let whole = k - k % 4;
         let next = rows.as_ptr().wrapping_add(N * k).cast::<i8>();
-        let lines = (N * k * std::mem::size_of::<T>()).div_ceil(64);
-        let steps = (whole / 4).max(1);
-        let per_step = lines.div_ceil(steps);
+        let per_step = prefetch_per_step::<T>(N * k, k);
         let mut acc = [[_mm256_setzero_pd(); 3]; N];
         for j in (0..whole).step_by(4) {
-            for p in 0..per_step {
-                // The next block's lines (a prefetch past the end of the
-                // rows is dropped, not a fault).
-                _mm_prefetch::<_MM_HINT_T0>(next.wrapping_add((j / 4 * per_step + p) * 64));
-            }
+            prefetch_next(next, j / 4, per_step);
             let cj = [load(c[0], j), load(c[1], j), load(c[2], j)];
             for (r, acc) in acc.iter_mut().enumerate() {
                 // SAFETY: `r k + j + 4 <= N k <= rows.len()` (asserted above;
@@ -223,12 +237,9 @@ mod avx {
         let whole = k - k % 4;
         let mut acc = [[_mm256_setzero_pd(); 3]; N];
         let next = rows.as_ptr().wrapping_add(3 * N * k).cast::<i8>();
+        let per_step = prefetch_per_step::<T>(3 * N * k, k);
         for j in (0..whole).step_by(4) {
-            // The next block's lines, two per step (a prefetch past the end
-            // of the basis is dropped, not a fault).
-            let line = j / 4 * 128;
-            _mm_prefetch::<_MM_HINT_T0>(next.wrapping_add(line));
-            _mm_prefetch::<_MM_HINT_T0>(next.wrapping_add(line + 64));
+            prefetch_next(next, j / 4, per_step);
             let y = load(s, j);
             for (v, acc) in acc.iter_mut().enumerate() {
                 for (a, acc) in acc.iter_mut().enumerate() {
@@ -428,37 +439,14 @@ fn points_body<T: Copy + Into<f64>>(
     // A loop and not `map(..).collect()`: `collect` is a function of its
     // own, compiled without the caller's AVX.
     let mut out = vec![[0.0; 3]; mean.len() / 3];
-    let whole = k - k % 4;
     for ((o, m), rows3) in out
         .iter_mut()
         .zip(mean.chunks_exact(3))
         .zip(rows.chunks_exact(3 * k))
     {
-        let (r0, rest) = rows3.split_at(k);
-        let (r1, r2) = rest.split_at(k);
-        let mut acc = [[0.0f64; 4]; 3];
-        let chunks = s[..whole]
-            .chunks_exact(4)
-            .zip(r0.chunks_exact(4))
-            .zip(r1.chunks_exact(4))
-            .zip(r2.chunks_exact(4));
-        for (((y, p), q), t) in chunks {
-            for l in 0..4 {
-                acc[0][l] += p[l].into() * y[l];
-                acc[1][l] += q[l].into() * y[l];
-                acc[2][l] += t[l].into() * y[l];
-            }
-        }
-        let tail = |r: &[T]| -> f64 {
-            r[whole..]
-                .iter()
-                .zip(&s[whole..])
-                .map(|(x, y)| (*x).into() * y)
-                .sum()
-        };
-        let tails = [tail(r0), tail(r1), tail(r2)];
+        let d = dots3(rows3, &s[..k]);
         for a in 0..3 {
-            o[a] = m[a] + ((acc[a][0] + acc[a][1]) + (acc[a][2] + acc[a][3]) + tails[a]);
+            o[a] = m[a] + d[a];
         }
     }
     out
@@ -499,8 +487,10 @@ fn accumulate_body<T: Copy + Into<f64>>(x: &[f64], mean: &[f64], rows: &[T], w: 
 /// each bit for bit as `crate::lbfgs::dot` sums it, in one pass (twelve
 /// partial sums instead of three chains of four one after the other).
 ///
-/// Panics if `rows3` does not have `3 k` entries.
-pub(crate) fn dots3(rows3: &[f64], w: &[f64]) -> [f64; 3] {
+/// Entries f64 or f32 (widened). Panics if `rows3` does not have `3 k`
+/// entries.
+#[inline(always)]
+pub(crate) fn dots3<T: Copy + Into<f64>>(rows3: &[T], w: &[f64]) -> [f64; 3] {
     let k = w.len();
     assert_eq!(rows3.len(), 3 * k, "rows3 must be 3 x k");
     let (r0, rest) = rows3.split_at(k);
@@ -514,12 +504,18 @@ pub(crate) fn dots3(rows3: &[f64], w: &[f64]) -> [f64; 3] {
         .zip(r2.chunks_exact(4));
     for (((x, p), q), s) in chunks {
         for l in 0..4 {
-            acc[0][l] += p[l] * x[l];
-            acc[1][l] += q[l] * x[l];
-            acc[2][l] += s[l] * x[l];
+            acc[0][l] += p[l].into() * x[l];
+            acc[1][l] += q[l].into() * x[l];
+            acc[2][l] += s[l].into() * x[l];
         }
     }
-    let tail = |r: &[f64]| -> f64 { r[whole..].iter().zip(&w[whole..]).map(|(x, y)| x * y).sum() };
+    let tail = |r: &[T]| -> f64 {
+        r[whole..]
+            .iter()
+            .zip(&w[whole..])
+            .map(|(x, y)| (*x).into() * y)
+            .sum()
+    };
     let tails = [tail(r0), tail(r1), tail(r2)];
     std::array::from_fn(|a| (acc[a][0] + acc[a][1]) + (acc[a][2] + acc[a][3]) + tails[a])
 }

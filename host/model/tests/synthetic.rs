@@ -14,6 +14,26 @@ fn cfg(settings: &PredictSettings) -> PredictConfig {
     settings.resolve().expect("valid settings")
 }
 
+/// The readings of `body`, every one exact.
+fn exact_targets(body: &[tapeshape_mesh::Vec3]) -> Vec<Option<Target>> {
+    measure_all(body)
+        .into_iter()
+        .map(|v| Some(Target::exact(v)))
+        .collect()
+}
+
+/// The default settings with step 1's Gauss-Newton MAP told that the
+/// readings are exact (tau 0.01 mm) and skipping rounds worth less than
+/// `min_decrease_mm`.
+fn exact_map(min_decrease_mm: f64) -> PredictSettings {
+    let mut settings = PredictSettings::default();
+    settings.step1.solver = Step1Solver::GaussNewtonMap {
+        tau_mm: Some(0.01),
+        min_decrease_mm,
+    };
+    settings
+}
+
 fn rms(errs: &[f64]) -> f64 {
     (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt()
 }
@@ -27,10 +47,7 @@ fn steps_reduce_the_error_and_step2_fits_to_a_tenth_of_a_millimetre() {
     let mut truth = random_params(&mut s);
     truth.bump = 0.015; // a local feature outside the training family
     let body = tube(&truth);
-    let targets: Vec<Option<Target>> = measure_all(&body)
-        .into_iter()
-        .map(|v| Some(Target::exact(v)))
-        .collect();
+    let targets = exact_targets(&body);
     // The paper's pipeline: its step 1 leaves errors that step 2 must fix
     // by leaving the PCA space (asserted below).
     let pred = model
@@ -115,20 +132,12 @@ fn refinement_keeps_in_family_bodies_as_close_as_the_start() {
     let topo = topology();
     let mut s = 4242;
     let mean = model.shape(&vec![0.0; model.n_components()]).unwrap();
-    let mut settings = PredictSettings::default();
-    settings.step1.solver = Step1Solver::GaussNewtonMap {
-        tau_mm: Some(0.01),
-        min_decrease_mm: tapeshape_model::DEFAULT_STEP1_MIN_DECREASE_MM,
-    };
-    let settings = cfg(&settings);
+    let settings = cfg(&exact_map(tapeshape_model::DEFAULT_STEP1_MIN_DECREASE_MM));
     let (mut d_start, mut d_final, mut d_mean) = (0.0, 0.0, 0.0);
     let n = 10;
     for _ in 0..n {
         let body = tube(&random_params(&mut s));
-        let targets: Vec<Option<Target>> = measure_all(&body)
-            .into_iter()
-            .map(|v| Some(Target::exact(v)))
-            .collect();
+        let targets = exact_targets(&body);
         let pred = model
             .predict(&targets, &TubeMeasurer, &topo, &settings)
             .unwrap();
@@ -167,16 +176,9 @@ fn a_gauss_newton_round_worth_less_than_its_threshold_keeps_the_weights() {
     let topo = topology();
     let mut s = 31;
     let body = tube(&random_params(&mut s));
-    let targets: Vec<Option<Target>> = measure_all(&body)
-        .into_iter()
-        .map(|v| Some(Target::exact(v)))
-        .collect();
+    let targets = exact_targets(&body);
     let run = |min_decrease_mm: f64| {
-        let mut settings = PredictSettings::default();
-        settings.step1.solver = Step1Solver::GaussNewtonMap {
-            tau_mm: Some(0.01),
-            min_decrease_mm,
-        };
+        let mut settings = exact_map(min_decrease_mm);
         // No continuation: only the s Gauss-Newton rounds move the weights.
         settings.continuation = None;
         model
@@ -417,10 +419,7 @@ fn per_measurement_weighting_fits_step_1_closer_than_the_papers() {
     let mut s = 4242;
     let mut truth = random_params(&mut s);
     truth.bump = 0.01;
-    let targets: Vec<Option<Target>> = measure_all(&tube(&truth))
-        .into_iter()
-        .map(|v| Some(Target::exact(v)))
-        .collect();
+    let targets = exact_targets(&tube(&truth));
     let step1_rms = |settings: &PredictConfig| -> (f64, f64) {
         let r = model
             .predict(&targets, &TubeMeasurer, &topo, settings)
@@ -456,10 +455,7 @@ fn run_tube(settings: &PredictSettings, l: f64) -> (f64, f64, usize, usize) {
     let mut s = 777;
     let mut truth = random_params(&mut s);
     truth.bump = 0.02;
-    let targets: Vec<Option<Target>> = measure_all(&tube(&truth))
-        .into_iter()
-        .map(|v| Some(Target::exact(v)))
-        .collect();
+    let targets = exact_targets(&tube(&truth));
     let r = model
         .predict(
             &targets,
