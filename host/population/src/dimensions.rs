@@ -661,6 +661,7 @@ pub fn dimension_markdown(report: &DimensionReport) -> String {
         match report.fit_scope {
             Some(FitScope::Twelve) => "`twelve`",
             Some(FitScope::Ansur) => "`ansur`",
+            Some(FitScope::AnsurSections) => "`ansur-sections`",
             None => "none",
         },
         if n_cannot > 0 {

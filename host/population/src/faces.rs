@@ -153,6 +153,7 @@ pub fn generate_faces(
                     phenotype: Some(ph),
                     local_changes: lc.iter().map(|(k, v)| (k.to_string(), v)).collect(),
                     fit: None,
+                    section_fields: Vec::new(),
                     source_file: None,
                 },
                 vertices,

@@ -87,6 +87,21 @@ pub struct Free {
     pub prior_sd: f64,
 }
 
+/// An offset field the fit may add to the generated body, with its
+/// coefficient's prior (around 0) and bounds: `vertices += c * field`
+/// (one offset per template vertex, metres per unit of `c`). The
+/// generator's own changes are all blends of its targets; a field is a
+/// shape change it lacks (`crate::sections`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FreeField<'a> {
+    /// Offsets, one per template vertex (metres per unit coefficient).
+    pub field: &'a [Vec3],
+    /// Prior SD of the coefficient around 0 (> 0).
+    pub prior_sd: f64,
+    /// Bounds of the coefficient (lower <= 0 <= upper).
+    pub range: (f64, f64),
+}
+
 /// When a start's iterations stop (besides the iteration limit and a step
 /// that no damping makes lower the cost). A rule set to 0 never fires.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -119,6 +134,9 @@ pub struct Fitted {
     pub mesh: Mesh,
     /// Each target's measurement on `mesh`, metres, in the targets' order.
     pub values: Vec<f64>,
+    /// The coefficient of each [`FreeField`], in their order (empty
+    /// without fields); `mesh` includes them.
+    pub field_coefficients: Vec<f64>,
     /// Final cost (squared mm, prior included).
     pub cost: f64,
     /// Iterations used, all starts together.
@@ -145,7 +163,11 @@ pub struct GeneratorFitter<'a> {
     body: &'a BodyModel,
     set: &'a CompiledSet,
     params: Vec<Param>,
+    /// The fields' offsets, after the parameters in the parameter vector.
+    fields: Vec<&'a [Vec3]>,
+    /// Per entry of the parameter vector (parameters, then fields).
     prior_sd: Vec<f64>,
+    /// Per entry of the parameter vector (parameters, then fields).
     bounds: Vec<(f64, f64)>,
     options: FitOptions,
 }
@@ -206,10 +228,43 @@ impl<'a> GeneratorFitter<'a> {
             body,
             set,
             params: free.iter().map(|f| f.param).collect(),
+            fields: Vec::new(),
             prior_sd: free.iter().map(|f| f.prior_sd).collect(),
             bounds,
             options,
         })
+    }
+
+    /// The fitter with `fields` free too (after the parameters).
+    ///
+    /// Errors: a field not one offset per template vertex, a prior SD that
+    /// is not positive and finite, bounds that do not hold 0.
+    pub fn with_fields(mut self, fields: &[FreeField<'a>]) -> Result<Self, FitError> {
+        for (k, f) in fields.iter().enumerate() {
+            if f.field.len() != self.body.topology().n_vertices() {
+                return Err(FitError::Settings(format!(
+                    "field {k} has {} offsets for {} vertices",
+                    f.field.len(),
+                    self.body.topology().n_vertices()
+                )));
+            }
+            if !(f.prior_sd.is_finite() && f.prior_sd > 0.0) {
+                return Err(FitError::Settings(format!(
+                    "field {k}: the prior SD {} must be positive and finite",
+                    f.prior_sd
+                )));
+            }
+            let (lo, hi) = f.range;
+            if !(lo <= 0.0 && 0.0 <= hi && lo.is_finite() && hi.is_finite()) {
+                return Err(FitError::Settings(format!(
+                    "field {k}: the bounds {lo}..{hi} must be finite and hold 0"
+                )));
+            }
+            self.fields.push(f.field);
+            self.prior_sd.push(f.prior_sd);
+            self.bounds.push(f.range);
+        }
+        Ok(self)
     }
 
     /// The free parameters, in the order of the parameter vector.
@@ -256,22 +311,51 @@ impl<'a> GeneratorFitter<'a> {
         Ok(best)
     }
 
-    fn get(&self, ph: &Phenotype, lc: &LocalChanges) -> Vec<f64> {
-        self.params.iter().map(|p| p.get(ph, lc)).collect()
+    /// The parameter vector: the parameters' values, then the fields'
+    /// coefficients `coef`.
+    fn get(&self, ph: &Phenotype, lc: &LocalChanges, coef: &[f64]) -> Vec<f64> {
+        self.params
+            .iter()
+            .map(|p| p.get(ph, lc))
+            .chain(coef.iter().copied())
+            .collect()
     }
 
-    /// `theta` clamped to the bounds, set on a copy of `(ph, lc)`.
+    /// The generated body with the fields at `coef` added.
+    fn generate(&self, ph: &Phenotype, lc: &LocalChanges, coef: &[f64]) -> Result<Mesh, FitError> {
+        let mut mesh = self.body.generate(ph, lc)?;
+        for (field, &c) in self.fields.iter().zip(coef) {
+            if c == 0.0 {
+                continue;
+            }
+            for (p, d) in mesh.vertices.iter_mut().zip(field.iter()) {
+                for a in 0..3 {
+                    p[a] += c * d[a];
+                }
+            }
+        }
+        Ok(mesh)
+    }
+
+    /// `theta` clamped to the bounds, set on a copy of `(ph, lc)`; the
+    /// fields' coefficients (clamped) returned beside them.
     fn with(
         &self,
         ph: &Phenotype,
         lc: &LocalChanges,
         theta: &[f64],
-    ) -> Result<(Phenotype, LocalChanges), FitError> {
+    ) -> Result<(Phenotype, LocalChanges, Vec<f64>), FitError> {
         let (mut ph, mut lc) = (*ph, lc.clone());
         for ((&p, &(lo, hi)), &v) in self.params.iter().zip(&self.bounds).zip(theta) {
             p.set(&mut ph, &mut lc, v.clamp(lo, hi))?;
         }
-        Ok((ph, lc))
+        let np = self.params.len();
+        let coef = theta[np..]
+            .iter()
+            .zip(&self.bounds[np..])
+            .map(|(&v, &(lo, hi))| v.clamp(lo, hi))
+            .collect();
+        Ok((ph, lc, coef))
     }
 
     /// The targets' values (metres) on `vertices` and, if asked, each one's
@@ -331,11 +415,12 @@ impl<'a> GeneratorFitter<'a> {
         mut ph: Phenotype,
         mut lc: LocalChanges,
     ) -> Result<Fitted, FitError> {
-        let np = self.params.len();
         let nm = targets.len();
-        let theta0 = self.get(&ph, &lc);
+        let mut coef = vec![0.0; self.fields.len()];
+        let theta0 = self.get(&ph, &lc, &coef);
+        let np = theta0.len();
         let mut mu = 1e-3;
-        let mut mesh = self.body.generate(&ph, &lc)?;
+        let mut mesh = self.generate(&ph, &lc, &coef)?;
         let (mut values, _) = self.measure(&mesh.vertices, targets, false)?;
         let mut current = self.cost(&values, targets, &theta0, &theta0);
         let mut iterations = 0;
@@ -343,14 +428,21 @@ impl<'a> GeneratorFitter<'a> {
         for _ in 0..self.options.max_iterations {
             iterations += 1;
             let jac = self.body.jacobian(&ph, &lc, &self.params)?;
+            // A field's column is the field itself (the body is linear in
+            // its coefficient).
+            let columns: Vec<&[Vec3]> = jac
+                .iter()
+                .map(Vec::as_slice)
+                .chain(self.fields.iter().copied())
+                .collect();
             let (_, grads) = self.measure(&mesh.vertices, targets, true)?;
-            let now = self.get(&ph, &lc);
+            let now = self.get(&ph, &lc, &coef);
             // J (nm + np) x np and the residual r, in mm and prior SDs.
             let mut j = DMatrix::<f64>::zeros(nm + np, np);
             let mut r = DVector::<f64>::zeros(nm + np);
             for i in 0..nm {
                 r[i] = (values[i] - targets[i].1) * 1000.0;
-                for (k, dk) in jac.iter().enumerate() {
+                for (k, dk) in columns.iter().enumerate() {
                     let mut s = 0.0;
                     for &(v, g) in &grads[i] {
                         let d = dk[v];
@@ -367,19 +459,19 @@ impl<'a> GeneratorFitter<'a> {
             for _ in 0..8 {
                 let step = self.bounded_step(&j, &r, &now, mu);
                 let trial: Vec<f64> = now.iter().zip(step.iter()).map(|(a, s)| a + s).collect();
-                let (ph2, lc2) = self.with(&ph, &lc, &trial)?;
-                let mesh2 = self.body.generate(&ph2, &lc2)?;
+                let (ph2, lc2, coef2) = self.with(&ph, &lc, &trial)?;
+                let mesh2 = self.generate(&ph2, &lc2, &coef2)?;
                 let (values2, _) = self.measure(&mesh2.vertices, targets, false)?;
-                let theta2 = self.get(&ph2, &lc2);
+                let theta2 = self.get(&ph2, &lc2, &coef2);
                 let c2 = self.cost(&values2, targets, &theta2, &theta0);
                 if c2 < current {
-                    accepted = Some((ph2, lc2, mesh2, values2, theta2, c2));
+                    accepted = Some((ph2, lc2, coef2, mesh2, values2, theta2, c2));
                     mu = (mu * 0.3).max(1e-7);
                     break;
                 }
                 mu *= 10.0;
             }
-            let Some((ph2, lc2, mesh2, values2, theta2, c2)) = accepted else {
+            let Some((ph2, lc2, coef2, mesh2, values2, theta2, c2)) = accepted else {
                 break;
             };
             let gain = (current - c2) / current.max(1e-300);
@@ -388,7 +480,7 @@ impl<'a> GeneratorFitter<'a> {
                 .zip(&now)
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max);
-            (ph, lc, mesh, values, current) = (ph2, lc2, mesh2, values2, c2);
+            (ph, lc, coef, mesh, values, current) = (ph2, lc2, coef2, mesh2, values2, c2);
             let worst = values
                 .iter()
                 .zip(targets)
@@ -403,6 +495,7 @@ impl<'a> GeneratorFitter<'a> {
             local_changes: lc,
             mesh,
             values,
+            field_coefficients: coef,
             cost: current,
             iterations,
         })
@@ -522,6 +615,115 @@ mod tests {
         // Values are the body's own measurements.
         for (v, (j, _)) in fit.values.iter().zip(&targets) {
             assert_eq!(*v, set.measure_one(*j, &fit.mesh.vertices).unwrap().value);
+        }
+    }
+
+    /// A field's coefficient is recovered from the measurements it moves,
+    /// beside a macro parameter: the Jacobian column of a field is right.
+    #[test]
+    fn recovers_a_fields_coefficient_beside_a_parameter() {
+        let (body, set) = quick();
+        let fields = crate::sections::section_fields(body).unwrap();
+        let free = [Free {
+            param: Param::Height,
+            prior_sd: 10.0,
+        }];
+        let fitter = GeneratorFitter::new(body, &set, &free, options())
+            .unwrap()
+            .with_fields(&[FreeField {
+                field: &fields.hip,
+                prior_sd: 10.0,
+                range: (-1.0, 3.0),
+            }])
+            .unwrap();
+        let truth = Phenotype {
+            height: 0.6,
+            ..Phenotype::default()
+        };
+        let mut x = body
+            .generate(&truth, &LocalChanges::new())
+            .unwrap()
+            .vertices;
+        for (p, d) in x.iter_mut().zip(&fields.hip) {
+            for a in 0..3 {
+                p[a] += 1.5 * d[a];
+            }
+        }
+        let targets: Vec<(usize, f64)> = ["stature", "hip"]
+            .iter()
+            .map(|n| {
+                let j = set.set().index_of(n).unwrap();
+                (j, set.measure_one(j, &x).unwrap().value)
+            })
+            .collect();
+        let fit = fitter
+            .fit(&targets, &[(Phenotype::default(), LocalChanges::new())])
+            .unwrap();
+        assert!(
+            fit.rms_mm(&targets) < 0.2,
+            "rms {} mm",
+            fit.rms_mm(&targets)
+        );
+        assert_eq!(fit.field_coefficients.len(), 1);
+        assert!(
+            (fit.field_coefficients[0] - 1.5).abs() < 0.02,
+            "{:?}",
+            fit.field_coefficients
+        );
+        assert!((fit.phenotype.height - 0.6).abs() < 0.01);
+        // The fitted mesh is the generator's body plus the field.
+        let mut y = body
+            .generate(&fit.phenotype, &fit.local_changes)
+            .unwrap()
+            .vertices;
+        for (p, d) in y.iter_mut().zip(&fields.hip) {
+            for a in 0..3 {
+                p[a] += fit.field_coefficients[0] * d[a];
+            }
+        }
+        assert_eq!(y, fit.mesh.vertices);
+    }
+
+    #[test]
+    fn bad_fields_are_refused() {
+        let (body, set) = quick();
+        let free = [Free {
+            param: Param::Height,
+            prior_sd: 1.0,
+        }];
+        let fitter = || GeneratorFitter::new(body, &set, &free, options()).unwrap();
+        let field = vec![[0.0; 3]; body.topology().n_vertices()];
+        let ok = FreeField {
+            field: &field,
+            prior_sd: 1.0,
+            range: (-1.0, 1.0),
+        };
+        assert!(fitter().with_fields(&[ok]).is_ok());
+        let short = vec![[0.0; 3]; 10];
+        for bad in [
+            FreeField {
+                field: &short,
+                ..ok
+            },
+            FreeField {
+                prior_sd: 0.0,
+                ..ok
+            },
+            FreeField {
+                prior_sd: f64::INFINITY,
+                ..ok
+            },
+            FreeField {
+                range: (0.5, 1.0),
+                ..ok
+            },
+            FreeField {
+                range: (-1.0, f64::NAN),
+                ..ok
+            },
+        ] {
+            let e = fitter().with_fields(&[bad]).unwrap_err().to_string();
+            assert!(e.contains("field 0"), "{e}");
         }
     }
 

@@ -78,6 +78,12 @@ pub struct BodyRecord {
     pub local_changes: BTreeMap<String, f64>,
     /// Fit of the body to its subject (populations).
     pub fit: Option<FitRecord>,
+    /// Coefficients of the section fields added to the generated body
+    /// (`crate::sections`: hip, waist; units of 10 mm at the sections'
+    /// diagonals), where the population was made with them; files written
+    /// before they existed read back empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub section_fields: Vec<f64>,
     /// The file an imported mesh came from.
     pub source_file: Option<String>,
 }

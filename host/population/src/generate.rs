@@ -9,7 +9,10 @@
 //! with the one generator fitter ([`crate::fit`]: damped Gauss-Newton with
 //! exact derivatives, measurement gradients from the supports chained with
 //! the generator's Jacobian). The result records, per body, the subject id,
-//! the parameters and the fitted and achieved values.
+//! the parameters and the fitted and achieved values. [`FitScope`] says
+//! which dimensions: the twelve, every one the standing mesh can follow,
+//! or those with the hip and waist sections squared too
+//! ([`crate::sections`], whose coefficients the records hold).
 //!
 //! The same seed and settings give the same file, byte for byte: every
 //! random draw comes from a ChaCha8 stream seeded per body, with integer and
@@ -27,7 +30,7 @@ use tapeshape_measure::{CompiledSet, MeasurementSet};
 use tapeshape_mesh::Vec3;
 
 use crate::ansur::{Ansur, Sex, Split, Subject};
-use crate::fit::{FitOptions, Free, GeneratorFitter, Stop};
+use crate::fit::{FitOptions, Free, FreeField, GeneratorFitter, Stop};
 use crate::format::{
     created_by, BodyRecord, Dataset, DatasetHeader, DatasetKind, FitRecord, FORMAT_VERSION,
 };
@@ -81,6 +84,24 @@ pub const EXTRA_FIT_TARGETS: &[(&str, &str)] = &[
     ("mentonsellionlength", "head-scale-vert-incr"),
 ];
 
+/// With [`FitScope::AnsurSections`], these are fitted too, their drivers
+/// free after [`FREE_MACROS`] and [`FREE_LOCALS`]: the buttock height,
+/// which on the template lies 87 mm above the crotch where ANSUR II's
+/// subjects have 42 mm (men) and 51 mm (women), lowered against the crotch
+/// by the hip's vertical scale (docs/results/real-customers.md).
+pub const SECTION_FIT_TARGETS: &[(&str, &str)] = &[("buttockheight", "hip-scale-vert-incr")];
+
+/// Prior SD of a section field's coefficient ([`crate::sections`], units of
+/// [`crate::sections::UNIT_M`]): a loose hold, since one unit moves the
+/// average man's girth-to-ellipse ratio by about 0.027 (the
+/// `cross_sections` example) and real people's spreads by 0.017-0.019
+/// (SD) around a mean the template is 0.06 below.
+const SECTION_PRIOR_SD: f64 = 1.0;
+
+/// Bounds of a section field's coefficient: from 10 mm rounder to 30 mm
+/// squarer at the diagonals.
+const SECTION_RANGE: (f64, f64) = (-1.0, 3.0);
+
 /// Which dimensions each body is fitted to.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum FitScope {
@@ -89,6 +110,11 @@ pub enum FitScope {
     Twelve,
     /// [`FIT_TARGETS`] and [`EXTRA_FIT_TARGETS`].
     Ansur,
+    /// [`FitScope::Ansur`]'s targets and [`SECTION_FIT_TARGETS`], with the
+    /// hip and waist section fields of [`crate::sections`] free: bodies
+    /// whose hip and waist sections can have a real person's girth,
+    /// breadth and depth at once (docs/population.md).
+    AnsurSections,
 }
 
 impl FitScope {
@@ -101,7 +127,18 @@ impl FitScope {
                 .chain(EXTRA_FIT_TARGETS)
                 .copied()
                 .collect(),
+            FitScope::AnsurSections => FIT_TARGETS
+                .iter()
+                .chain(EXTRA_FIT_TARGETS)
+                .chain(SECTION_FIT_TARGETS)
+                .copied()
+                .collect(),
         }
+    }
+
+    /// Whether the section fields are free.
+    pub fn sections(self) -> bool {
+        self == FitScope::AnsurSections
     }
 }
 
@@ -174,12 +211,20 @@ fn fit_problem(
 ) -> Result<(Vec<usize>, Vec<Free>), DatasetError> {
     let mut index = Vec::new();
     let mut free = Vec::new();
+    let mut last = Vec::new();
     let local =
         |label: &str| Param::local(label).map_err(|e| DatasetError::Settings(e.to_string()));
     for (column, driver) in targets {
         index.push(set.set().index_of(column).ok_or_else(|| {
             DatasetError::Settings(format!("the ansur measurement set has no {column:?}"))
         })?);
+        if SECTION_FIT_TARGETS.contains(&(*column, *driver)) {
+            last.push(Free {
+                param: local(driver)?,
+                prior_sd: 0.6,
+            });
+            continue;
+        }
         free.push(if *driver == "@height" {
             Free {
                 param: Param::Height,
@@ -201,6 +246,7 @@ fn fit_problem(
             prior_sd: 0.5,
         });
     }
+    free.extend(last);
     Ok((index, free))
 }
 
@@ -281,6 +327,16 @@ pub fn generate_population(
             },
         },
     )?;
+    let fitter = if settings.fit.sections() {
+        let fields = crate::sections::section_fields(body)?;
+        fitter.with_fields(&[&fields.hip, &fields.waist].map(|field| FreeField {
+            field,
+            prior_sd: SECTION_PRIOR_SD,
+            range: SECTION_RANGE,
+        }))?
+    } else {
+        fitter
+    };
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
     let subjects = draw_subjects(ansur, settings, &mut rng);
     let done = std::sync::atomic::AtomicUsize::new(0);
@@ -338,12 +394,13 @@ pub fn generate_population(
                 .collect();
             let targets: Vec<(usize, f64)> = index.iter().copied().zip(target.clone()).collect();
             let fitted = fitter.fit(&targets, &[(ph, lc)])?;
-            let (ph, lc, mesh, achieved, iterations) = (
+            let (ph, lc, mesh, achieved, iterations, section_fields) = (
                 fitted.phenotype,
                 fitted.local_changes,
                 fitted.mesh,
                 fitted.values,
                 fitted.iterations,
+                fitted.field_coefficients,
             );
             let fit = FitRecord {
                 target_mm: fit_targets
@@ -371,6 +428,7 @@ pub fn generate_population(
                 phenotype: Some(ph),
                 local_changes: lc.iter().map(|(k, v)| (k.to_string(), v)).collect(),
                 fit: Some(fit),
+                section_fields,
                 source_file: None,
             };
             progress(
@@ -455,5 +513,64 @@ pub(crate) mod tests {
         let again = small_population(2, 11);
         assert_eq!(again.header.bodies[..2], d.header.bodies[..2]);
         assert_eq!(again.bodies[0], d.bodies[0]);
+    }
+
+    /// With the section fields free, each record holds their coefficients
+    /// and its mesh is the generator's body with them added; the buttock
+    /// height and the breadths are fitted; without them, nothing is
+    /// recorded.
+    #[test]
+    fn a_sections_population_records_its_fields() {
+        let settings = PopulationSettings {
+            n: 3,
+            seed: 5,
+            fit: FitScope::AnsurSections,
+            ..Default::default()
+        };
+        let d = generate_population(&settings, &|_, _| {}).unwrap();
+        let body = BodyModel::shared().unwrap();
+        let fields = crate::sections::section_fields(body).unwrap();
+        let mut squared = 0;
+        for (r, v) in d.header.bodies.iter().zip(&d.bodies) {
+            assert_eq!(r.section_fields.len(), 2, "{}", r.name);
+            let (lo, hi) = SECTION_RANGE;
+            assert!(r.section_fields.iter().all(|c| (lo..=hi).contains(c)));
+            squared += usize::from(r.section_fields.iter().any(|c| *c > 0.1));
+            let mut lc = LocalChanges::new();
+            for (k, v) in &r.local_changes {
+                lc.set(k, *v).unwrap();
+            }
+            let mut x = body.generate(&r.phenotype.unwrap(), &lc).unwrap().vertices;
+            for (p, (h, w)) in x.iter_mut().zip(fields.hip.iter().zip(&fields.waist)) {
+                for a in 0..3 {
+                    p[a] += r.section_fields[0] * h[a] + r.section_fields[1] * w[a];
+                }
+            }
+            // The stored mesh is f32.
+            let gap = x
+                .iter()
+                .zip(v)
+                .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max))
+                .fold(0.0, f64::max);
+            assert!(gap < 1e-6, "{}: {gap} m", r.name);
+            let fit = r.fit.as_ref().unwrap();
+            for c in ["buttockheight", "hipbreadth", "waistdepth"] {
+                assert!(fit.target_mm.contains_key(c), "{c} not fitted");
+            }
+        }
+        // Real people's sections are squarer than the template's: the fit
+        // uses the fields.
+        assert!(
+            squared >= 2,
+            "{:?}",
+            d.header
+                .bodies
+                .iter()
+                .map(|r| &r.section_fields)
+                .collect::<Vec<_>>()
+        );
+        assert!(small_population(1, 5).header.bodies[0]
+            .section_fields
+            .is_empty());
     }
 }

@@ -107,6 +107,7 @@ pub fn import_dir(dir: &Path) -> Result<Dataset, DatasetError> {
             phenotype: None,
             local_changes: BTreeMap::new(),
             fit: None,
+            section_fields: Vec::new(),
             source_file: Some(f.display().to_string()),
         });
         bodies.push(m.vertices);

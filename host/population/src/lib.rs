@@ -30,6 +30,7 @@ pub mod fit;
 pub mod format;
 pub mod generate;
 pub mod import;
+pub mod sections;
 pub mod seeded;
 pub mod statistics;
 

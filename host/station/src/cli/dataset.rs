@@ -42,8 +42,10 @@ enum Command {
         #[arg(long, default_value_t = 0.15)]
         local_variation: f64,
         /// Which ANSUR II dimensions each body is fitted to: `twelve`
-        /// (stature, girths, main lengths) or `ansur` (also breadths,
-        /// depths, landmark heights, head; issue 12).
+        /// (stature, girths, main lengths), `ansur` (also breadths,
+        /// depths, landmark heights, head; issue 12) or `ansur-sections`
+        /// (`ansur`, the buttock height, and hip and waist sections that
+        /// can be as square as real people's: the default model's).
         #[arg(long, default_value = "twelve", value_parser = parse_fit)]
         fit: dataset::FitScope,
         /// Output file (.tsd).
@@ -113,8 +115,9 @@ fn parse_fit(text: &str) -> Result<dataset::FitScope, String> {
     match text {
         "twelve" => Ok(dataset::FitScope::Twelve),
         "ansur" => Ok(dataset::FitScope::Ansur),
+        "ansur-sections" => Ok(dataset::FitScope::AnsurSections),
         other => Err(format!(
-            "'{other}' is not a fit scope: write twelve or ansur"
+            "'{other}' is not a fit scope: write twelve, ansur or ansur-sections"
         )),
     }
 }
