@@ -85,7 +85,7 @@ pub const EXTRA_FIT_TARGETS: &[(&str, &str)] = &[
 ];
 
 /// With [`FitScope::AnsurSections`], these are fitted too, their drivers
-/// free after [`FREE_MACROS`] and [`FREE_LOCALS`]: the buttock height,
+/// free after the macro parameters and the belly: the buttock height,
 /// which on the template lies 87 mm above the crotch where ANSUR II's
 /// subjects have 42 mm (men) and 51 mm (women), lowered against the crotch
 /// by the hip's vertical scale (docs/results/real-customers.md).
