@@ -24,8 +24,10 @@
 //! is from 20 mm below the buttock level to half-way up to the omphalion,
 //! falling to the crotch (plus 10 mm) below and the omphalion above; the
 //! waist field's from there to 20 mm above the omphalion, falling to the
-//! buttock level below and 80 mm above the omphalion above. The two
-//! together at the same coefficient are flat over the whole band.
+//! buttock level below and 80 mm above the omphalion above. Between the
+//! buttock level and the omphalion the two overlap (at the same
+//! coefficient their sum peaks at twice a field's push half-way up), so a
+//! body's fit can square its hips and its waist by different amounts.
 
 use std::sync::OnceLock;
 
