@@ -19,6 +19,7 @@
 use tapeshape_body::{BodyModel, LocalChanges, Phenotype};
 use tapeshape_measure::MeasurementSet;
 use tapeshape_population::ansur::{Ansur, Sex, Split};
+use tapeshape_population::sections::ellipse_perimeter;
 
 /// (section, girth, breadth, depth): ANSUR II columns, also measurements of
 /// the `ansur` set.
@@ -39,15 +40,6 @@ const DRIVERS: &[&str] = &[
     "torso-scale-depth-incr",
     "stomach-pregnant-incr",
 ];
-
-/// Perimeter of the ellipse with full axes `breadth` and `depth` (any unit,
-/// the same one back), Ramanujan's second approximation (relative error
-/// below 1e-4 for these aspect ratios).
-fn ellipse_perimeter(breadth: f64, depth: f64) -> f64 {
-    let (a, b) = (breadth / 2.0, depth / 2.0);
-    let h = ((a - b) / (a + b)).powi(2);
-    std::f64::consts::PI * (a + b) * (1.0 + 3.0 * h / (10.0 + (4.0 - 3.0 * h).sqrt()))
-}
 
 /// Mean, SD and the 5th and 95th percentiles of `v` (not empty).
 fn summary(v: &mut [f64]) -> (f64, f64, f64, f64) {
@@ -271,19 +263,4 @@ fn squaring(body: &BodyModel, measure: &Measure<'_>) -> Result<(), Box<dyn std::
     }
     println!();
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::ellipse_perimeter;
-
-    #[test]
-    fn a_circle_and_a_flat_ellipse() {
-        // A circle of diameter 2: 2 pi.
-        assert!((ellipse_perimeter(2.0, 2.0) - 2.0 * std::f64::consts::PI).abs() < 1e-12);
-        // Full axes 2 and 0: the segment walked there and back, 4.
-        assert!((ellipse_perimeter(2.0, 0.0) - 4.0).abs() < 2e-3);
-        // Semi-axes 2 and 1: 9.688448 (the complete elliptic integral).
-        assert!((ellipse_perimeter(4.0, 2.0) - 9.688_448_2).abs() < 1e-5);
-    }
 }
