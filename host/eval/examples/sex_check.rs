@@ -19,7 +19,8 @@
 //! training population as a population table,
 //! `tapeshape_eval::poptable`, made by the `population_table` example:
 //! adds the two axes fitted on it; the embedded default's is
-//! `host/eval/data/default-population.csv`).
+//! `host/eval/data/default-population.csv`), `--soft-pull SHARE` (step 2's
+//! `tapeshape_model::Step2Settings::soft_pull` instead of the station's).
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -44,6 +45,7 @@ fn real_main() -> Result<(), String> {
     let mut per_sex = None;
     let (mut out, mut png, mut csv_out) = (None, None, None);
     let (mut model, mut population) = (None, None);
+    let mut options = tapeshape_estimator::PredictOptions::default();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -63,6 +65,15 @@ fn real_main() -> Result<(), String> {
             "--csv" => csv_out = Some(value("a file")?),
             "--model" => model = Some(value("a model file")?),
             "--population" => population = Some(value("a population table")?),
+            "--soft-pull" => {
+                let v = value("a share in [0, 1]")?;
+                let pull: f64 = v.parse().map_err(|e| format!("--soft-pull {v}: {e}"))?;
+                let mut settings = options.settings();
+                settings.step2.soft_pull = pull;
+                // The station's real-people soft targets stay on.
+                options.real_people = Some(options.real_people());
+                options.pipeline = tapeshape_estimator::Pipeline::Custom(Box::new(settings));
+            }
             other => return Err(format!("unknown argument {other} (see the file's docs)")),
         }
     }
@@ -94,7 +105,7 @@ fn real_main() -> Result<(), String> {
             per_sex,
             leave_out: Vec::new(),
             ansur_survey: false,
-            options: tapeshape_estimator::PredictOptions::default(),
+            options: options.clone(),
         };
         let r = run(estimator, &opts).map_err(|e| e.to_string())?;
         let people = score_run(&axes, &r, ansur).map_err(|e| e.to_string())?;

@@ -193,3 +193,76 @@ fn the_folds_step_2_makes_on_real_survey_values_are_smoothed_out_keeping_every_r
         assert!(checked >= 35, "subject {id}: {checked} readings checked");
     }
 }
+
+/// Step 2 with the soft targets pulled all the way
+/// (`Step2Settings::soft_pull` 1) on a test-split person whose `quick`
+/// values and sex fold the surface that way (test-split 25772: 14 flipped
+/// triangles left after the fold repair, 2026-12-07, before the
+/// fallback): the body kept is pulled less (`SoftPullReduced` says how
+/// far), folds nothing, and still meets every reading within its ISO
+/// 20685-1 allowable error. A person whose body does not fold (the first
+/// test-split man) keeps the full pull and no such warning.
+#[test]
+fn a_full_soft_pull_that_folds_the_surface_pulls_less_and_says_so() {
+    let estimator = Estimator::default_model().expect("embedded model");
+    let mut settings = PredictOptions::default().settings();
+    settings.step2.soft_pull = 1.0;
+    let mut options = PredictOptions::custom(settings);
+    options.real_people = Some(PredictOptions::default().real_people());
+    let opts = CustomersOptions {
+        input_set: "quick".into(),
+        with_sex: true,
+        per_sex: None,
+        leave_out: Vec::new(),
+        ansur_survey: false,
+        options: options.clone(),
+    };
+    let entered = entered_readings(estimator, &opts).expect("entered readings");
+    let ansur = Ansur::get().expect("ANSUR II");
+    let reduced = |e: &Estimate| {
+        e.report.warnings.iter().find_map(|w| match w {
+            Warning::Model(ModelWarning::SoftPullReduced { pull, asked }) => Some((*pull, *asked)),
+            _ => None,
+        })
+    };
+    let first_man = tapeshape_eval::customers::test_people(ansur, Some(1))
+        .into_iter()
+        .find(|s| s.sex == tapeshape_population::ansur::Sex::Male)
+        .expect("a test-split man");
+    for (id, folds_at_full_pull) in [(25772, true), (first_man.id, false)] {
+        assert_eq!(id % 4, 0, "{id} is not in the test split");
+        let subject = ansur.subject(id).expect("subject");
+        let inputs = inputs_of(subject, &entered, true);
+        let e = estimator.predict(&inputs, &options).expect("estimate");
+        let p = &e.report.prediction.plausibility;
+        assert_eq!(
+            (p.flipped_triangles, p.degenerate_triangles),
+            (0, 0),
+            "subject {id}"
+        );
+        match reduced(&e) {
+            Some((pull, asked)) => {
+                assert!(folds_at_full_pull, "subject {id}: pulled {pull} of {asked}");
+                assert_eq!(asked, 1.0, "subject {id}");
+                assert!((0.0..1.0).contains(&pull), "subject {id}: {pull}");
+            }
+            None => assert!(!folds_at_full_pull, "subject {id}: no reduced pull"),
+        }
+        for m in e
+            .report
+            .prediction
+            .measurements
+            .iter()
+            .filter(|m| m.target_mm.is_some() && !m.soft && !m.recorded_only)
+        {
+            let j = estimator.set().index_of(&m.name).unwrap();
+            let iso = estimator.set().definitions[j].tolerance.mm();
+            assert!(
+                m.error_mm.unwrap() <= iso,
+                "subject {id}: {} missed by {:.2} mm, ISO allows {iso} mm",
+                m.name,
+                m.error_mm.unwrap()
+            );
+        }
+    }
+}

@@ -166,6 +166,11 @@ fn model_warning(lang: Lang, w: &ModelWarning) -> String {
             a.set("left", *left);
             t(msg!("warn-folds-smoothed"), &a)
         }
+        ModelWarning::SoftPullReduced { pull, asked } => {
+            a.set("pull", format!("{:.0}", 100.0 * pull));
+            a.set("asked", format!("{:.0}", 100.0 * asked));
+            t(msg!("warn-soft-pull-reduced"), &a)
+        }
         ModelWarning::FarFromPopulation {
             mahalanobis,
             readings,
@@ -396,6 +401,10 @@ mod tests {
                 collapsed: 1,
             }),
             Warning::Model(ModelWarning::FoldsSmoothed { folded: 9, left: 2 }),
+            Warning::Model(ModelWarning::SoftPullReduced {
+                pull: 0.5,
+                asked: 1.0,
+            }),
             Warning::Model(ModelWarning::FarFromPopulation {
                 mahalanobis: 11.26,
                 readings: 4,

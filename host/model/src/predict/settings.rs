@@ -186,6 +186,9 @@ pub struct Step2Settings {
     /// dimensions short of what real people with the same readings have
     /// (a soft target's value); step 2 can follow them locally
     /// (`docs/results/real-customers.md`, "Step 2 and the soft targets").
+    /// Where the body (after the fold repair) still folds triangles, step 2
+    /// runs again with half and then none of this share and keeps the
+    /// body that folds least ([`super::Warning::SoftPullReduced`]).
     pub soft_pull: f64,
 }
 

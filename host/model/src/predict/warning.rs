@@ -91,6 +91,16 @@ pub enum Warning {
         /// Triangles still flipped or collapsed after smoothing.
         left: usize,
     },
+    /// Following the real-people soft targets `asked` of the way in step 2
+    /// folded the surface, so the body kept follows them `pull` of the way
+    /// (see [`super::Step2Settings::soft_pull`]); the readings are fitted
+    /// the same.
+    SoftPullReduced {
+        /// The share of the way the body kept was pulled, in `[0, 1]`.
+        pull: f64,
+        /// The share the settings asked for.
+        asked: f64,
+    },
     /// The readings are far from the training population: the shape is
     /// held to `held_sd` standard deviations and may not fit them all.
     FarFromPopulation {
@@ -166,6 +176,12 @@ impl std::fmt::Display for Warning {
             Self::FoldsSmoothed { folded, left } => write!(
                 f,
                 "step 2 folded {folded} triangles of the surface: smoothed them out, {left} left"
+            ),
+            Self::SoftPullReduced { pull, asked } => write!(
+                f,
+                "following real people's statistics for the dimensions not measured {:.0} % of the way folded the surface: followed them {:.0} %",
+                100.0 * asked,
+                100.0 * pull
             ),
             Self::FarFromPopulation {
                 mahalanobis,

@@ -502,6 +502,7 @@ warn-step2-kept-round = Schritt 2 endete mit höherer Messenergie als Schritt 1 
 warn-step2-kept-step1 = Schritt 2 endete mit höherer Messenergie als Schritt 1 (E_m { $end } statt { $step1 } mm^4): Form aus Schritt 1 beibehalten
 warn-triangles = Schritt 2 hat { $flipped } Dreiecke umgeklappt und { $collapsed } zusammengedrückt: die Maße passen womöglich nicht zusammen
 warn-folds-smoothed = Schritt 2 hat { $folded } Dreiecke der Oberfläche gefaltet: geglättet, { $left } übrig
+warn-soft-pull-reduced = den Statistiken realer Menschen für die nicht gemessenen Maße { $asked } % des Weges zu folgen faltete die Oberfläche: ihnen { $pull } % gefolgt
 warn-far-from-population = die Maße liegen weit von der Trainingspopulation entfernt (Mahalanobis-Abstand { $distance } über { $n } Maße): die Form wird auf { $sd } SD gehalten und trifft womöglich nicht alle
 warn-not-fitted = „{ $name }“ ließ sich nicht auf { $limit } mm genau anpassen (Fehler { $error } mm)
 warn-measuring-failed = die nicht angegebenen Maße ließen sich nicht messen: { $reason }

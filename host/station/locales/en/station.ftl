@@ -497,6 +497,7 @@ warn-step2-kept-round = step 2 ended with a higher measurement energy than step 
 warn-step2-kept-step1 = step 2 ended with a higher measurement energy than step 1 (E_m { $end } vs { $step1 } mm^4): kept the step-1 shape
 warn-triangles = step 2 flipped { $flipped } and collapsed { $collapsed } triangles: the measurements may be inconsistent
 warn-folds-smoothed = step 2 folded { $folded } triangles of the surface: smoothed them out, { $left } left
+warn-soft-pull-reduced = following real people's statistics for the dimensions not measured { $asked } % of the way folded the surface: followed them { $pull } %
 warn-far-from-population = the measurements are far from the training population (Mahalanobis distance { $distance } over { $n } measurements): the shape is held to { $sd } SD and may not fit them all
 warn-not-fitted = '{ $name }' could not be fitted within { $limit } mm (error { $error } mm)
 warn-measuring-failed = measuring the measurements not given failed: { $reason }
