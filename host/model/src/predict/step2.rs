@@ -344,7 +344,14 @@ impl ShapeModel {
         topology: &Topology,
         observer: &dyn PredictObserver,
     ) -> Result<Step2Shape> {
-        let pulled = config.soft_pull > 0.0 && readings.iter().any(|g| g.soft && g.weight < 1.0);
+        // Whether any soft target is pulled (a caliper's is held whatever
+        // the share, see `step2_with`): otherwise another try would repeat
+        // this one.
+        let pulled = config.soft_pull > 0.0
+            && readings
+                .iter()
+                .zip(&step1.measured)
+                .any(|(g, m)| g.soft && g.weight < 1.0 && !is_caliper(&m.support));
         let shares: &[f64] = if pulled { &SOFT_PULL_SHARES } else { &[1.0] };
         // The body that folds least, the first (largest pull) of equals.
         let mut best: Option<(usize, Step2Shape)> = None;
