@@ -83,10 +83,7 @@ fn main() -> ExitCode {
             }),
             "--soft-pull" => value("a share in [0, 1]").and_then(|v| {
                 let pull: f64 = v.parse().map_err(|e| format!("--soft-pull {v}: {e}"))?;
-                let mut settings = opts.options.settings();
-                settings.step2.soft_pull = pull;
-                opts.options.real_people = Some(opts.options.real_people());
-                opts.options.pipeline = tapeshape_estimator::Pipeline::Custom(Box::new(settings));
+                opts.options = tapeshape_eval::customers::with_soft_pull(&opts.options, pull);
                 Ok(())
             }),
             "--breadths-and-depths" => {

@@ -68,11 +68,7 @@ fn real_main() -> Result<(), String> {
             "--soft-pull" => {
                 let v = value("a share in [0, 1]")?;
                 let pull: f64 = v.parse().map_err(|e| format!("--soft-pull {v}: {e}"))?;
-                let mut settings = options.settings();
-                settings.step2.soft_pull = pull;
-                // The station's real-people soft targets stay on.
-                options.real_people = Some(options.real_people());
-                options.pipeline = tapeshape_estimator::Pipeline::Custom(Box::new(settings));
+                options = tapeshape_eval::customers::with_soft_pull(&options, pull);
             }
             other => return Err(format!("unknown argument {other} (see the file's docs)")),
         }

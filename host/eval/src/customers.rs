@@ -386,6 +386,21 @@ pub fn within_iso(union: &MeasurementSet, j: usize, measured: f64, real: f64) ->
     (measured - real).abs() <= union.definitions[j].tolerance.mm() / 1000.0
 }
 
+/// `options` with step 2's soft pull
+/// (`tapeshape_model::Step2Settings::soft_pull`) set to `pull` and the
+/// station's real-people soft targets kept on, as the examples'
+/// `--soft-pull SHARE` asks. A share outside `[0, 1]` is refused when the
+/// estimate resolves its settings.
+pub fn with_soft_pull(options: &PredictOptions, pull: f64) -> PredictOptions {
+    let mut settings = options.settings();
+    settings.step2.soft_pull = pull;
+    PredictOptions {
+        real_people: Some(options.real_people()),
+        pipeline: tapeshape_estimator::Pipeline::Custom(Box::new(settings)),
+        ..options.clone()
+    }
+}
+
 /// Runs every test-split person through `estimator` (see the module docs).
 pub fn run(estimator: &Estimator, opts: &CustomersOptions) -> Result<CustomersRun, EvalError> {
     run_with_surface(estimator, opts, None)

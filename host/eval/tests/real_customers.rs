@@ -15,7 +15,7 @@
 
 use tapeshape_estimator::{Estimate, Estimator, PredictOptions, Warning};
 use tapeshape_eval::customers::{
-    entered_readings, inputs_of, measuring_set, run, within_iso, CustomersOptions,
+    entered_readings, inputs_of, measuring_set, run, with_soft_pull, within_iso, CustomersOptions,
 };
 use tapeshape_model::Warning as ModelWarning;
 use tapeshape_population::ansur::Ansur;
@@ -205,10 +205,7 @@ fn the_folds_step_2_makes_on_real_survey_values_are_smoothed_out_keeping_every_r
 #[test]
 fn a_full_soft_pull_that_folds_the_surface_pulls_less_and_says_so() {
     let estimator = Estimator::default_model().expect("embedded model");
-    let mut settings = PredictOptions::default().settings();
-    settings.step2.soft_pull = 1.0;
-    let mut options = PredictOptions::custom(settings);
-    options.real_people = Some(PredictOptions::default().real_people());
+    let options = with_soft_pull(&PredictOptions::default(), 1.0);
     let opts = CustomersOptions {
         input_set: "quick".into(),
         with_sex: true,

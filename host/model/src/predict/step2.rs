@@ -297,6 +297,14 @@ fn is_caliper(support: &tapeshape_measure::Support) -> bool {
     support.axis.is_some_and(|a| a[2].abs() < 0.5)
 }
 
+/// Whether step 2 pulls reading `g` (measured `m` on the step-1 shape) as a
+/// soft target: a soft target looser than the reference tolerance that is
+/// not a caliper. Every other reading looser than the reference, a caliper
+/// soft target among them, is held at its step-1 value.
+fn soft_and_pulled(g: &super::readings::Reading, m: &Measured) -> bool {
+    g.soft && g.weight < 1.0 && !is_caliper(&m.support)
+}
+
 /// The shares of [`super::Step2Settings::soft_pull`] step 2 runs with, in
 /// turn, while its body (after the fold repair) still folds triangles of the
 /// step-1 shape; the body that folds least is kept, the first of equals.
@@ -351,7 +359,7 @@ impl ShapeModel {
             && readings
                 .iter()
                 .zip(&step1.measured)
-                .any(|(g, m)| g.soft && g.weight < 1.0 && !is_caliper(&m.support));
+                .any(|(g, m)| soft_and_pulled(g, m));
         let shares: &[f64] = if pulled { &SOFT_PULL_SHARES } else { &[1.0] };
         // The body that folds least, the first (largest pull) of equals.
         let mut best: Option<(usize, Step2Shape)> = None;
@@ -645,13 +653,9 @@ impl ShapeModel {
     ) -> Result<Step2Shape> {
         let readings2 =
             readings.with_targets(readings.iter().zip(&step1.measured).map(|(g, m)| {
-                if g.soft && g.weight < 1.0 {
+                if soft_and_pulled(g, m) {
                     let at = m.value * MM_PER_M;
-                    if is_caliper(&m.support) {
-                        at
-                    } else {
-                        at + config.soft_pull * (g.target_mm - at)
-                    }
+                    at + config.soft_pull * (g.target_mm - at)
                 } else if g.weight < 1.0 {
                     m.value * MM_PER_M
                 } else {
