@@ -83,7 +83,8 @@ fn main() -> ExitCode {
             }),
             "--soft-pull" => value("a share in [0, 1]").and_then(|v| {
                 let pull: f64 = v.parse().map_err(|e| format!("--soft-pull {v}: {e}"))?;
-                opts.options = tapeshape_eval::customers::with_soft_pull(&opts.options, pull);
+                opts.options = tapeshape_eval::customers::with_soft_pull(&opts.options, pull)
+                    .map_err(|e| format!("--soft-pull {v}: {e}"))?;
                 Ok(())
             }),
             "--breadths-and-depths" => {

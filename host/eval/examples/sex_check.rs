@@ -68,7 +68,8 @@ fn real_main() -> Result<(), String> {
             "--soft-pull" => {
                 let v = value("a share in [0, 1]")?;
                 let pull: f64 = v.parse().map_err(|e| format!("--soft-pull {v}: {e}"))?;
-                options = tapeshape_eval::customers::with_soft_pull(&options, pull);
+                options = tapeshape_eval::customers::with_soft_pull(&options, pull)
+                    .map_err(|e| format!("--soft-pull {v}: {e}"))?;
             }
             other => return Err(format!("unknown argument {other} (see the file's docs)")),
         }

@@ -389,16 +389,21 @@ pub fn within_iso(union: &MeasurementSet, j: usize, measured: f64, real: f64) ->
 /// `options` with step 2's soft pull
 /// (`tapeshape_model::Step2Settings::soft_pull`) set to `pull` and the
 /// station's real-people soft targets kept on, as the examples'
-/// `--soft-pull SHARE` asks. A share outside `[0, 1]` is refused when the
-/// estimate resolves its settings.
-pub fn with_soft_pull(options: &PredictOptions, pull: f64) -> PredictOptions {
+/// `--soft-pull SHARE` asks. Errors for a share outside `[0, 1]` (else
+/// every person would be refused one by one).
+pub fn with_soft_pull(
+    options: &PredictOptions,
+    pull: f64,
+) -> Result<PredictOptions, tapeshape_estimator::PredictError> {
     let mut settings = options.settings();
     settings.step2.soft_pull = pull;
-    PredictOptions {
+    let options = PredictOptions {
         real_people: Some(options.real_people()),
         pipeline: tapeshape_estimator::Pipeline::Custom(Box::new(settings)),
         ..options.clone()
-    }
+    };
+    options.resolve()?;
+    Ok(options)
 }
 
 /// Runs every test-split person through `estimator` (see the module docs).

@@ -205,7 +205,7 @@ fn the_folds_step_2_makes_on_real_survey_values_are_smoothed_out_keeping_every_r
 #[test]
 fn a_full_soft_pull_that_folds_the_surface_pulls_less_and_says_so() {
     let estimator = Estimator::default_model().expect("embedded model");
-    let options = with_soft_pull(&PredictOptions::default(), 1.0);
+    let options = with_soft_pull(&PredictOptions::default(), 1.0).expect("a share in [0, 1]");
     let opts = CustomersOptions {
         input_set: "quick".into(),
         with_sex: true,
