@@ -726,9 +726,10 @@ pub fn minimise_reduced(
     let mut c_try = vec![0.0; n];
     let mut g_try = vec![0.0; n];
     // Damping relative to the smoothness term's mean diagonal: it pins
-    // the rigid translation (sigma_0 = 0, which E_m does not see either)
-    // and is raised only when a step is refused. The kernel depends on
-    // mu alone, so a round that refuses nothing computes it once.
+    // the rigid translation (sigma_0 = 0, which E_m does not see either),
+    // is raised when a step is refused and lowered (to `mu_min`) when one
+    // is taken. The kernel depends on mu alone, so a round that refuses
+    // nothing computes it once.
     let scale = {
         let v = obj.basis.values();
         let s = 4.0 * obj.lambda * v.iter().sum::<f64>() / v.len() as f64;
@@ -739,7 +740,16 @@ pub fn minimise_reduced(
         }
     };
     let mu_min = 1e-6 * scale;
-    let mut mu = mu_min;
+    // A round starts damped at the mean diagonal itself, not at `mu_min`:
+    // a round's first step from a re-measured shape, nearly undamped,
+    // overshot (the readings' lengths are not linear that far), and the
+    // round then spent five or six refused steps raising mu eightfold each
+    // time before one was taken. Started here, the bench's paper34 body
+    // took 13 evaluations in step 2 instead of 35 (soft pull 0.5; 21
+    // instead of 40 at 0.75), the same energies, and on all 1,505 ANSUR II
+    // test-split people (quick with sex) the same errors
+    // (docs/results/predict-bench.md, 2026-12-07).
+    let mut mu = scale;
     let mut kernel: Option<(f64, Vec<f64>, Mat<f64>)> = None;
     // The readings' Jacobian at `c`, kept until a step is accepted.
     let mut readings_jac: Option<Vec<f64>> = None;
