@@ -116,7 +116,8 @@ pub struct RealPeople {
     /// targets too. On by default: step 1 follows them in the learned
     /// space; step 2 holds them at their step-1 value
     /// ([`tapeshape_model::Step2Settings::soft_pull`] pulls the other soft
-    /// targets half the way). All 1,505 ANSUR II test-split people, quick
+    /// targets three quarters of the way, half before 2026-12-07). All
+    /// 1,505 ANSUR II test-split people, quick
     /// input with sex, the mean absolute error over the 32 dimensions the
     /// mesh can follow went from 12.96 mm without them to 11.61 mm (least
     /// squares 9.54 mm), none folded. Pulled in step 2 as well they gave

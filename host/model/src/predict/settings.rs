@@ -446,7 +446,7 @@ impl Default for PredictSettings {
                 // L-BFGS one.
                 first: Some(Step2Solver::smooth_basis()),
                 fold_repair: true,
-                // Soft targets followed half the way, a breadth or depth
+                // Soft targets followed part of the way, a breadth or depth
                 // held at its step-1 value (step 2's `is_caliper`). All
                 // 1,505 ANSUR II test-split people, quick input with sex,
                 // with the estimator's `RealPeople::breadths_and_depths`:
@@ -457,8 +457,16 @@ impl Default for PredictSettings {
                 // calipers pulled too (11.50 mm) four readings without sex
                 // made step 2's smooth basis give way to L-BFGS, 0.58 s a
                 // body instead of 0.09 s (issue 13's target: 120 ms)
-                // (docs/results/real-customers.md).
-                soft_pull: 0.5,
+                // (docs/results/real-customers.md). Since 2026-12-07
+                // three quarters of the way: with the smooth basis's rounds
+                // started damped (`crate::reduced`) it costs no more than
+                // half did, the 32 followable 11.64 -> 10.95 mm, none
+                // folded, and no woman's estimate on the men's side of the
+                // whole-body discriminant axis (6 at 0.5; all the way: 0
+                // too, but a folding body then runs step 2 again, which
+                // takes the bench's paper34 body past issue 13's 40 ms)
+                // (docs/results/sex-check.md).
+                soft_pull: 0.75,
             },
             continuation: Some(Continuation::default()),
             warn_error_mm: 5.0,
