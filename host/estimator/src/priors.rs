@@ -14,8 +14,8 @@
 //! `(reference / tolerance)^2`, so a real reading (a few mm) dominates
 //! and a soft target only pulls where nothing was measured. Step 2 aims a
 //! soft target [`tapeshape_model::Step2Settings::soft_pull`] of the way
-//! from the value step 1 gave it to its own (the station: none of it, so it
-//! keeps its step-1 value; see that setting for why),
+//! from the value step 1 gave it to its own (the station: the default,
+//! three quarters of the way; see that setting for why),
 //! and its fold repair neither holds a soft target's landmarks nor keeps
 //! it within a tolerance: a statistic is not the customer.
 //!

@@ -6,7 +6,14 @@
 //! objective evaluations, flipped triangles, how many bodies step 2 pulled
 //! the soft targets less for (`soft-pull-reduced`), and each prediction's
 //! wall time (the people run on every core, so a body's time is not one
-//! core's; `predict` in the estimator's bench is).
+//! core's; `predict` in the estimator's bench is; a refused person's time
+//! counts too).
+//!
+//! The evaluations are those of the runs the report keeps: the kept
+//! body's. Where L-BFGS ran after the smooth basis, its runs (about 100
+//! evaluations a round) replace the smooth basis's in the report; a body
+//! a soft-pull retry replaced is not counted. So the total moves with how
+//! many bodies needed L-BFGS as much as with the smooth basis's own work.
 //!
 //! ```text
 //! cargo run --release -p tapeshape-eval --example step2_survey -- --set quick [--soft-pull S] [--ansur-survey]

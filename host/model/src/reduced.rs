@@ -727,9 +727,12 @@ pub fn minimise_reduced(
     let mut g_try = vec![0.0; n];
     // Damping relative to the smoothness term's mean diagonal: it pins
     // the rigid translation (sigma_0 = 0, which E_m does not see either),
-    // is raised when a step is refused and lowered (to `mu_min`) when one
-    // is taken. The kernel depends on mu alone, so a round that refuses
-    // nothing computes it once.
+    // is raised when a step is refused and lowered threefold, not below
+    // `mu_min`, when one is taken. The per-segment kernel (`fit:
+    // Segments`, not the default) depends on mu alone and is computed
+    // again whenever mu changes, so with the damped start below nearly
+    // every iteration of that form computes it; the readings' form (the
+    // default) solves per iteration anyway.
     let scale = {
         let v = obj.basis.values();
         let s = 4.0 * obj.lambda * v.iter().sum::<f64>() / v.len() as f64;

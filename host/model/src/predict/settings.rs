@@ -447,7 +447,8 @@ impl Default for PredictSettings {
                 first: Some(Step2Solver::smooth_basis()),
                 fold_repair: true,
                 // Soft targets followed part of the way, a breadth or depth
-                // held at its step-1 value (step 2's `is_caliper`). All
+                // held at its step-1 value (step 2's `is_caliper`).
+                // 2026-12-06, half the way, rounds undamped: all
                 // 1,505 ANSUR II test-split people, quick input with sex,
                 // with the estimator's `RealPeople::breadths_and_depths`:
                 // the mean absolute error over the 32 dimensions the mesh
@@ -462,9 +463,11 @@ impl Default for PredictSettings {
                 // started damped (`crate::reduced`) it costs no more than
                 // half did, the 32 followable 11.64 -> 10.95 mm, none
                 // folded, and no woman's estimate on the men's side of the
-                // whole-body discriminant axis (6 at 0.5; all the way: 0
-                // too, but a folding body then runs step 2 again, which
-                // takes the bench's paper34 body past issue 13's 40 ms)
+                // whole-body discriminant axis (6 at 0.5). All the way
+                // gives 0 too, but a folding body then runs step 2 again,
+                // and the bench's paper34 body does: 65 ms on one core
+                // before the damped start, about 50 ms after it in a
+                // throwaway timing, past issue 13's 40 ms
                 // (docs/results/sex-check.md).
                 soft_pull: 0.75,
             },
