@@ -466,8 +466,8 @@ impl Default for PredictSettings {
                 // whole-body discriminant axis (6 at 0.5). All the way
                 // gives 0 too, but a folding body then runs step 2 again,
                 // and the bench's paper34 body does: 65 ms on one core
-                // before the damped start, about 50 ms after it in a
-                // throwaway timing, past issue 13's 40 ms
+                // before the damped start, 64-69 ms after it (criterion),
+                // past issue 13's 40 ms
                 // (docs/results/sex-check.md).
                 soft_pull: 0.75,
             },
