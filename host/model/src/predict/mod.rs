@@ -184,6 +184,11 @@ impl ShapeModel {
             measurer,
             observer,
         )?;
+        let step1 = if config.step2().fold_repair {
+            self.unfold_step1(step1, &readings, measurer, topology)?
+        } else {
+            step1
+        };
         let time_step1 = t.elapsed();
 
         let t = Instant::now();

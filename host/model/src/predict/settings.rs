@@ -171,7 +171,10 @@ pub struct Step2Settings {
     /// out has its support held too and the smoothing starts again. A
     /// triangle still folded is then moved as one piece, and the held
     /// landmarks of the triangles still folded are let go (all or part of
-    /// the way, on the same terms). On all 1,505 ANSUR II test-split people
+    /// the way, on the same terms). Before step 2, the step-1 shape is
+    /// smoothed the same way where it folds triangles of the model's mean
+    /// shape (far along a few components the linear space folds the head
+    /// or the feet). On all 1,505 ANSUR II test-split people
     /// entered with their `ansur` survey values the flipped triangles went
     /// from 4,466 to 1,078, the share within ISO unchanged (99.6 %, every
     /// dimension's) (`docs/results/real-customers.md`).
@@ -186,9 +189,11 @@ pub struct Step2Settings {
     /// dimensions short of what real people with the same readings have
     /// (a soft target's value); step 2 can follow them locally
     /// (`docs/results/real-customers.md`, "Step 2 and the soft targets").
-    /// Where the body (after the fold repair) still folds triangles, step 2
-    /// runs again with half and then none of this share and keeps the
-    /// body that folds least ([`super::Warning::SoftPullReduced`]).
+    /// Where the body (after the fold repair) still folds triangles or is
+    /// creased (more than 20 edges whose fold grew by more than 30 degrees
+    /// from the step-1 shape), step 2 runs again with half and then none of
+    /// this share and keeps the body that folds least
+    /// ([`super::Warning::SoftPullReduced`]).
     pub soft_pull: f64,
 }
 

@@ -51,10 +51,19 @@
 //! 20685-1 either way; on all 1,505, 4,466 -> 1,078, 99.6 % either way.
 //!
 //! Where soft targets were pulled ([`super::Step2Settings::soft_pull`] above
-//! 0) and the repaired body still folds, all of the above runs again with a
-//! smaller share of the pull (`SOFT_PULL_SHARES`), and the body that folds
-//! least is kept, with [`Warning::SoftPullReduced`] when it is not the
-//! first: the readings are the customer, the soft targets a statistic.
+//! 0) and the repaired body still folds (flipped or collapsed triangles, or
+//! more than `folds::CREASES_ALLOWED` edges whose fold grew by more than
+//! `folds::CREASE_DEG` from the step-1 shape: ridges the repair does not
+//! see), all of the above runs again with a smaller share of the pull
+//! (`SOFT_PULL_SHARES`), and the body that folds least is kept, with
+//! [`Warning::SoftPullReduced`] when it is not the first: the readings are
+//! the customer, the soft targets a statistic.
+//!
+//! Before all of this, with the fold repair on, the step-1 shape itself is
+//! smoothed where it folds triangles of the model's mean shape
+//! (`ShapeModel::unfold_step1`): a linear shape space can fold the surface
+//! far along a few components. The report's step-1 values are measured on
+//! that shape.
 
 use tapeshape_measure::Measured;
 use tapeshape_mesh::vec3::{add, scale, sub};
@@ -329,6 +338,17 @@ const FOLD_RELEASE_PASSES: usize = 2;
 /// go that the repair tries, the largest first.
 const FOLD_RELEASE_PARTS: [f64; 8] = [1.0, 0.875, 0.75, 0.625, 0.5, 0.375, 0.25, 0.125];
 
+/// How many triangles of the model's mean shape the step-1 shape may fold
+/// before it is smoothed (`ShapeModel::unfold_step1`). Why 20: a few of the
+/// template's slivers flip on many bodies, generated ones too (the 50
+/// held-out generated bodies of `docs/results/predict-sreal.md` flip 154
+/// against the mean between them), and smoothing those moved the S_real
+/// vertex distance from 13.89 to 13.90 mm; on 1,500 ANSUR II
+/// *train-split* people (`quick`, with sex; `examples/train_creases.rs`)
+/// the step-1 shape flips none on 1,008, at most 6 on nine in ten, more than
+/// 20 on 33, and 81 and 96 on the two whose bodies failed the surface check.
+const UNFOLD_STEP1_ABOVE: usize = 20;
+
 /// The allowable error (mm) of a reading whose measurer does not know its
 /// own (as [`super::Continuation`]'s default).
 const FOLD_REPAIR_DEFAULT_MM: f64 = 4.0;
@@ -378,7 +398,16 @@ impl ShapeModel {
             if config.fold_repair {
                 shape = self.repair_folds(shape, readings, step1, measurer, topology)?;
             }
-            let folded = folds::folded_faces(topology, &step1.vertices, &shape.vertices).len();
+            // Folded triangles and creased edges alike: the fold repair
+            // unfolds triangles but can leave the surface creased where a
+            // pulled statistic bent it (`folds::CREASE_DEG`).
+            let creased = folds::creased_edges(topology, &step1.vertices, &shape.vertices);
+            let folded = folds::folded_faces(topology, &step1.vertices, &shape.vertices).len()
+                + if creased > folds::CREASES_ALLOWED {
+                    creased
+                } else {
+                    0
+                };
             if i > 0 && folded < best.as_ref().map_or(usize::MAX, |b| b.0) {
                 shape.warnings.push(Warning::SoftPullReduced {
                     pull: tried.soft_pull,
@@ -527,6 +556,58 @@ impl ShapeModel {
             shape.warnings.push(Warning::FoldsSmoothed { folded, left });
         }
         Ok(shape)
+    }
+
+    /// Before step 2, with the fold repair on: where the step-1 shape
+    /// folds triangles of the model's mean shape (flipped or collapsed),
+    /// smooths its displacement from the mean there
+    /// ([`folds::smooth_folds`], the landmarks of straight readings held)
+    /// and measures the readings again on it; kept where it folds fewer
+    /// triangles. Step 2 then starts from it and measures its smoothness
+    /// from it. Why: the learned space is linear, and a shape far along a
+    /// few components can fold the surface where the training bodies do
+    /// not (the head's small features): ANSUR II test-split subject 14812
+    /// (`quick`, with sex) has 87 triangles of the step-1 shape flipped
+    /// against the mean, and its body failed the surface check
+    /// (`docs/results/real-customers/surface-check.md`) whatever step 2
+    /// did. Most step-1 shapes flip a few of the template's slivers, which
+    /// this smooths as well at no cost to the readings (step 2 fits them
+    /// from here).
+    pub(crate) fn unfold_step1(
+        &self,
+        mut step1: Step1Shape,
+        readings: &Readings,
+        measurer: &dyn Measurer,
+        topology: &Topology,
+    ) -> Result<Step1Shape> {
+        // The mean shape (flat, 3V, metres) as points.
+        let mean: Vec<Vec3> = self
+            .pca
+            .mean
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
+        if folds::folded_faces(topology, &mean, &step1.vertices).len() <= UNFOLD_STEP1_ABOVE {
+            return Ok(step1);
+        }
+        let mut pinned = vec![false; topology.n_vertices()];
+        for (_, m) in readings
+            .iter()
+            .zip(&step1.measured)
+            .filter(|(g, m)| !g.soft && m.support.segments.len() <= 1)
+        {
+            for p in &m.support.points {
+                pinned[p.a as usize] = true;
+                pinned[p.b as usize] = true;
+            }
+        }
+        let mut x = step1.vertices.clone();
+        let (before, after) = folds::smooth_folds(topology, &mean, &mut x, &pinned);
+        if after < before {
+            step1.measured = self.measure_checked(measurer, &x, &readings.indices())?;
+            step1.vertices = x;
+        }
+        Ok(step1)
     }
 
     /// Step 2 without the fold repair: the first solver, then the solver

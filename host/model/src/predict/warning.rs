@@ -92,9 +92,9 @@ pub enum Warning {
         left: usize,
     },
     /// Following the real-people soft targets `asked` of the way in step 2
-    /// folded the surface, so the body kept follows them `pull` of the way
-    /// (see [`super::Step2Settings::soft_pull`]); the readings are fitted
-    /// the same.
+    /// folded or creased the surface, so the body kept follows them `pull`
+    /// of the way (see [`super::Step2Settings::soft_pull`]); the readings
+    /// are fitted the same.
     SoftPullReduced {
         /// The share of the way the body kept was pulled, in `[0, 1]`.
         pull: f64,
@@ -179,7 +179,7 @@ impl std::fmt::Display for Warning {
             ),
             Self::SoftPullReduced { pull, asked } => write!(
                 f,
-                "following real people's statistics for the dimensions not measured {:.0} % of the way folded the surface: followed them {:.0} %",
+                "following real people's statistics for the dimensions not measured {:.0} % of the way folded or creased the surface: followed them {:.0} %",
                 100.0 * asked,
                 100.0 * pull
             ),
