@@ -110,15 +110,21 @@ pub(crate) fn creased_edges(topology: &Topology, before: &[Vec3], after: &[Vec3]
     let cos_limit = limit.cos();
     let after_n = normals(after);
     // An edge whose fold on `after` is below the limit cannot have grown
-    // by more than it: most edges are left at a dot product, and the
-    // angles (atan2, the cost) are taken for the rest only.
+    // by more than it: most edges are left at a dot product (squared, no
+    // square root: the limit is below 90 degrees, so a negative dot product
+    // is beyond it), and the angles (atan2, the cost) are taken for the
+    // rest only.
+    debug_assert!(cos_limit > 0.0);
     let candidates: Vec<(u32, u32)> = (0..topology.edges().len())
         .filter(|&e| topology.edge_face_count(e) == 2)
         .filter_map(|e| {
             let mut it = topology.edge_faces(e);
             let (f, g) = (it.next()?, it.next()?);
             let (n, m) = (after_n[f as usize], after_n[g as usize]);
-            (dot(n, m) < cos_limit * norm(n) * norm(m) || norm(n) == 0.0 || norm(m) == 0.0)
+            let (d, nn, mm) = (dot(n, m), dot(n, n), dot(m, m));
+            // A degenerate triangle has no direction: it counts as folded
+            // (`fold` gives it pi).
+            (d < 0.0 || nn == 0.0 || mm == 0.0 || d * d < cos_limit * cos_limit * nn * mm)
                 .then_some((f, g))
         })
         .collect();

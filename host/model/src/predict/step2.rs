@@ -59,11 +59,11 @@
 //! [`Warning::SoftPullReduced`] when it is not the first: the readings are
 //! the customer, the soft targets a statistic.
 //!
-//! Before all of this, with the fold repair on, the step-1 shape itself is
-//! smoothed where it folds triangles of the model's mean shape
-//! (`ShapeModel::unfold_step1`): a linear shape space can fold the surface
-//! far along a few components. The report's step-1 values are measured on
-//! that shape.
+//! Before all of this, with the fold repair on, a step-1 shape that flips
+//! more than `UNFOLD_STEP1_ABOVE` triangles of the model's mean shape is
+//! smoothed there (`ShapeModel::unfold_step1`): a linear shape space can
+//! fold the surface far along a few components. The report's step-1 values
+//! are measured on that shape.
 
 use tapeshape_measure::Measured;
 use tapeshape_mesh::vec3::{add, scale, sub};
@@ -559,8 +559,9 @@ impl ShapeModel {
     }
 
     /// Before step 2, with the fold repair on: where the step-1 shape
-    /// folds triangles of the model's mean shape (flipped or collapsed),
-    /// smooths its displacement from the mean there
+    /// folds more than [`UNFOLD_STEP1_ABOVE`] triangles of the model's mean
+    /// shape (flipped or collapsed), smooths its displacement from the mean
+    /// there
     /// ([`folds::smooth_folds`], the landmarks of straight readings held)
     /// and measures the readings again on it; kept where it folds fewer
     /// triangles. Step 2 then starts from it and measures its smoothness
@@ -570,9 +571,8 @@ impl ShapeModel {
     /// (`quick`, with sex) has 87 triangles of the step-1 shape flipped
     /// against the mean, and its body failed the surface check
     /// (`docs/results/real-customers/surface-check.md`) whatever step 2
-    /// did. Most step-1 shapes flip a few of the template's slivers, which
-    /// this smooths as well at no cost to the readings (step 2 fits them
-    /// from here).
+    /// did. Many step-1 shapes flip a few of the template's slivers, as
+    /// generated bodies do; those are left as they are.
     pub(crate) fn unfold_step1(
         &self,
         mut step1: Step1Shape,
