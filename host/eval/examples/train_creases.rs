@@ -139,6 +139,9 @@ fn main() -> Result<()> {
             );
         }
     }
+    if rows.is_empty() {
+        anyhow::bail!("no train-split people to count (--n {})", args.n);
+    }
     let mut g30: Vec<usize> = rows.iter().map(|r| r.grown[2]).collect();
     g30.sort_unstable();
     let q = |p: f64| g30[((g30.len() - 1) as f64 * p).round() as usize];

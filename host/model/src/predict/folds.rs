@@ -90,7 +90,8 @@ pub(crate) const CREASES_ALLOWED: usize = 20;
 
 /// The interior edges (two triangles) of `topology` whose fold grew by
 /// more than [`CREASE_DEG`] from `before` to `after` (both V vertices, the
-/// same unit). A flipped triangle's edges count too. Written here for the
+/// same unit). A flipped triangle's edges usually count too (not an
+/// edge between two triangles flipped together). Written here for the
 /// same reason as the repair: a few lines over the template's own edges.
 pub(crate) fn creased_edges(topology: &Topology, before: &[Vec3], after: &[Vec3]) -> usize {
     let faces = topology.faces();
@@ -348,6 +349,15 @@ mod tests {
             creased_edges(&topo, &folded_grid(20.0), &folded_grid(45.0)),
             0
         );
+        // Past 90 degrees (a negative dot product) and all the way over.
+        assert_eq!(creased_edges(&topo, &flat, &folded_grid(150.0)), 8);
+        // Vertex (4, 4) moved onto the segment (5, 4)-(5, 5): their
+        // triangle collapses to a line and has no direction (fold pi), so
+        // its edges count (its neighbours across (4, 4)'s ring may flip and
+        // count as well).
+        let mut collapsed = flat.clone();
+        collapsed[4 * 9 + 4] = [5.0, 4.5, 0.0];
+        assert!(creased_edges(&topo, &flat, &collapsed) >= 2);
         // Unfolding is no crease, and a rigid motion changes no fold.
         assert_eq!(creased_edges(&topo, &folded_grid(60.0), &flat), 0);
         let moved: Vec<Vec3> = folded_grid(60.0)

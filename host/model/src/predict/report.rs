@@ -128,7 +128,10 @@ pub struct PredictionReport {
     pub start_method: StartMethod,
     /// Start weights after clamping (normalised).
     pub weights_start: Vec<f64>,
-    /// Step-1 weights after clamping (normalised).
+    /// Step-1 weights after clamping (normalised). Their shape is step 1's;
+    /// where it folded the model's mean shape, step 2 started from it
+    /// smoothed (`ShapeModel::unfold_step1`), and the step-1 values below
+    /// are measured on that.
     pub weights_step1: Vec<f64>,
     /// Per measurement, in the model's order.
     pub measurements: Vec<MeasurementReport>,

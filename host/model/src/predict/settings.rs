@@ -171,14 +171,14 @@ pub struct Step2Settings {
     /// out has its support held too and the smoothing starts again. A
     /// triangle still folded is then moved as one piece, and the held
     /// landmarks of the triangles still folded are let go (all or part of
-    /// the way, on the same terms). Before step 2, a step-1 shape that
-    /// flips more than 20 triangles of the model's mean shape is smoothed
-    /// the same way against the mean (far along a few components the
-    /// linear space folds the head or the feet). On all 1,505 ANSUR II
-    /// test-split people
+    /// the way, on the same terms). On all 1,505 ANSUR II test-split people
     /// entered with their `ansur` survey values the flipped triangles went
     /// from 4,466 to 1,078, the share within ISO unchanged (99.6 %, every
-    /// dimension's) (`docs/results/real-customers.md`).
+    /// dimension's) (`docs/results/real-customers.md`). Since 2026-12-07
+    /// (evening) it also runs before step 2: a step-1 shape that flips
+    /// more than 20 triangles of the model's mean shape is smoothed the
+    /// same way against the mean (far along a few components the linear
+    /// space folds the head or the feet).
     pub fold_repair: bool,
     /// Where step 2 aims a soft target ([`super::Target::soft`]) that is
     /// looser than the reference tolerance, in `[0, 1]`: its step-1 value

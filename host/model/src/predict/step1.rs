@@ -44,7 +44,10 @@ pub struct Step1Shape {
     pub weights: Vec<f64>,
     /// Components the clamp after step 1 changed.
     pub clamped: Vec<usize>,
-    /// The shape (V vertices, metres, station frame), inside the PCA space.
+    /// The shape (V vertices, metres, station frame), inside the PCA space
+    /// as step 1 returns it; with the fold repair on, step 2 may first
+    /// smooth it where it folds the model's mean shape
+    /// (`ShapeModel::unfold_step1`), and then it is that shape.
     pub vertices: Vec<Vec3>,
     /// The given readings measured on it, in the order of the readings.
     pub measured: Vec<Measured>,

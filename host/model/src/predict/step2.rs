@@ -316,7 +316,9 @@ fn soft_and_pulled(g: &super::readings::Reading, m: &Measured) -> bool {
 
 /// The shares of [`super::Step2Settings::soft_pull`] step 2 runs with, in
 /// turn, while its body (after the fold repair) still folds triangles of the
-/// step-1 shape; the body that folds least is kept, the first of equals.
+/// step-1 shape or has more than `folds::CREASES_ALLOWED` creased edges
+/// (counted with the folded triangles, see `step2`); the body that folds
+/// least is kept, the first of equals.
 /// Why: a soft target is a statistic of real people, not the customer, and
 /// following it all the way can pull the surface through itself (the crotch
 /// path, the navel, the head: on all 1,505 ANSUR II test-split people
@@ -344,7 +346,8 @@ const FOLD_RELEASE_PARTS: [f64; 8] = [1.0, 0.875, 0.75, 0.625, 0.5, 0.375, 0.25,
 /// held-out generated bodies of `docs/results/predict-sreal.md` flip 154
 /// against the mean between them), and smoothing those moved the S_real
 /// vertex distance from 13.89 to 13.90 mm; on 1,500 ANSUR II
-/// *train-split* people (`quick`, with sex; `examples/train_creases.rs`)
+/// *train-split* people (`quick`, with sex;
+/// `host/eval/examples/train_creases.rs`)
 /// the step-1 shape flips none on 1,008, at most 6 on nine in ten, more than
 /// 20 on 33, and 81 and 96 on the two whose bodies failed the surface check.
 const UNFOLD_STEP1_ABOVE: usize = 20;
@@ -400,8 +403,13 @@ impl ShapeModel {
             }
             // Folded triangles and creased edges alike: the fold repair
             // unfolds triangles but can leave the surface creased where a
-            // pulled statistic bent it (`folds::CREASE_DEG`).
-            let creased = folds::creased_edges(topology, &step1.vertices, &shape.vertices);
+            // pulled statistic bent it (`folds::CREASE_DEG`). With one
+            // share there is nothing to choose between: not counted.
+            let creased = if shares.len() > 1 {
+                folds::creased_edges(topology, &step1.vertices, &shape.vertices)
+            } else {
+                0
+            };
             let folded = folds::folded_faces(topology, &step1.vertices, &shape.vertices).len()
                 + if creased > folds::CREASES_ALLOWED {
                     creased
@@ -604,8 +612,12 @@ impl ShapeModel {
         let mut x = step1.vertices.clone();
         let (before, after) = folds::smooth_folds(topology, &mean, &mut x, &pinned);
         if after < before {
-            step1.measured = self.measure_checked(measurer, &x, &readings.indices())?;
-            step1.vertices = x;
+            // Where the smoothed shape cannot be measured, step 2 starts
+            // from the step-1 shape as it was.
+            if let Ok(measured) = self.measure_checked(measurer, &x, &readings.indices()) {
+                step1.measured = measured;
+                step1.vertices = x;
+            }
         }
         Ok(step1)
     }
