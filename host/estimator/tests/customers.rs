@@ -40,6 +40,27 @@ fn measured(est: &tapeshape_estimator::Estimate, name: &str) -> tapeshape_model:
         .clone()
 }
 
+/// Every reading entered (not a soft target) of `est` ends within its ISO
+/// 20685-1 allowable error.
+fn assert_readings_within_iso(e: &Estimator, est: &tapeshape_estimator::Estimate) {
+    for m in est
+        .report
+        .prediction
+        .measurements
+        .iter()
+        .filter(|m| m.target_mm.is_some() && !m.soft)
+    {
+        let j = e.set().index_of(&m.name).unwrap();
+        let iso = e.set().definitions[j].tolerance.mm();
+        assert!(
+            m.error_mm.unwrap() <= iso,
+            "{}: missed by {:?} mm, ISO allows {iso} mm",
+            m.name,
+            m.error_mm
+        );
+    }
+}
+
 /// A typical man's quick readings.
 const MAN: [&str; 9] = [
     "stature=176cm",
@@ -609,22 +630,7 @@ fn step2_pulls_the_unmeasured_towards_real_people() {
         p < 0.8 * h,
         "soft targets missed by {p:.2} mm pulled, {h:.2} mm held"
     );
-    for m in pulled
-        .report
-        .prediction
-        .measurements
-        .iter()
-        .filter(|m| m.target_mm.is_some() && !m.soft)
-    {
-        let j = e.set().index_of(&m.name).unwrap();
-        let iso = e.set().definitions[j].tolerance.mm();
-        assert!(
-            m.error_mm.unwrap() <= iso,
-            "{}: missed by {:.2} mm, ISO allows {iso} mm",
-            m.name,
-            m.error_mm.unwrap()
-        );
-    }
+    assert_readings_within_iso(e, &pulled);
 }
 
 /// `RealPeople::breadths_and_depths` gives soft targets to the breadths
@@ -710,20 +716,7 @@ fn step2_holds_soft_calipers_and_keeps_the_smooth_body() {
             .all(|c| p.measurements.iter().any(|m| m.soft && m.name == *c)),
         "every caliper has a soft target"
     );
-    for m in p
-        .measurements
-        .iter()
-        .filter(|m| m.target_mm.is_some() && !m.soft)
-    {
-        let j = e.set().index_of(&m.name).unwrap();
-        let iso = e.set().definitions[j].tolerance.mm();
-        assert!(
-            m.error_mm.unwrap() <= iso,
-            "{}: {:?} mm",
-            m.name,
-            m.error_mm
-        );
-    }
+    assert_readings_within_iso(e, &est);
 }
 
 /// Triangles of `x` whose normal turned by more than 90 degrees from the
@@ -782,20 +775,5 @@ fn a_step1_shape_folded_against_the_mean_is_smoothed_before_step2() {
         body <= 5,
         "the body flips {body} triangles of the mean shape (its step-1 shape {in_space})"
     );
-    for m in est
-        .report
-        .prediction
-        .measurements
-        .iter()
-        .filter(|m| m.target_mm.is_some() && !m.soft)
-    {
-        let j = e.set().index_of(&m.name).unwrap();
-        let iso = e.set().definitions[j].tolerance.mm();
-        assert!(
-            m.error_mm.unwrap() <= iso,
-            "{}: {:?} mm",
-            m.name,
-            m.error_mm
-        );
-    }
+    assert_readings_within_iso(e, &est);
 }

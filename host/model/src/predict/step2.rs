@@ -352,6 +352,33 @@ const FOLD_RELEASE_PARTS: [f64; 8] = [1.0, 0.875, 0.75, 0.625, 0.5, 0.375, 0.25,
 /// 20 on 33, and 81 and 96 on the two whose bodies failed the surface check.
 const UNFOLD_STEP1_ABOVE: usize = 20;
 
+/// Marks the vertices of `m`'s support points (both ends of each point's
+/// edge) in `pinned`.
+fn hold(pinned: &mut [bool], m: &Measured) {
+    for p in &m.support.points {
+        pinned[p.a as usize] = true;
+        pinned[p.b as usize] = true;
+    }
+}
+
+/// The vertices (of `n`) a smoothing holds: the landmarks of the straight
+/// readings (one segment or none) among `readings`, measured as `measured`.
+/// A straight reading's value is its landmarks' positions: they stay. A
+/// girth's hull or a path's route is found again on the smoothed body. A
+/// soft target is a statistic, not the customer: its landmarks are not
+/// held.
+fn straight_landmarks(readings: &Readings, measured: &[Measured], n: usize) -> Vec<bool> {
+    let mut pinned = vec![false; n];
+    for (_, m) in readings
+        .iter()
+        .zip(measured)
+        .filter(|(g, m)| !g.soft && m.support.segments.len() <= 1)
+    {
+        hold(&mut pinned, m);
+    }
+    pinned
+}
+
 /// The allowable error (mm) of a reading whose measurer does not know its
 /// own (as [`super::Continuation`]'s default).
 const FOLD_REPAIR_DEFAULT_MM: f64 = 4.0;
@@ -456,25 +483,7 @@ impl ShapeModel {
         if folded == 0 {
             return Ok(shape);
         }
-        let hold = |pinned: &mut [bool], m: &Measured| {
-            for p in &m.support.points {
-                pinned[p.a as usize] = true;
-                pinned[p.b as usize] = true;
-            }
-        };
-        // A straight reading's value is its landmarks' positions: they
-        // stay. A girth's hull or a path's route is found again on the
-        // smoothed body.
-        // A soft target is a statistic, not the customer: its landmarks
-        // are not held and it may fall out of its tolerance.
-        let mut pinned = vec![false; topology.n_vertices()];
-        for (_, m) in readings
-            .iter()
-            .zip(&shape.measured)
-            .filter(|(g, m)| !g.soft && m.support.segments.len() <= 1)
-        {
-            hold(&mut pinned, m);
-        }
+        let mut pinned = straight_landmarks(readings, &shape.measured, topology.n_vertices());
         let within = |m: &[Measured]| -> Vec<bool> {
             readings
                 .iter()
@@ -598,17 +607,7 @@ impl ShapeModel {
         if folds::folded_faces(topology, &mean, &step1.vertices).len() <= UNFOLD_STEP1_ABOVE {
             return Ok(step1);
         }
-        let mut pinned = vec![false; topology.n_vertices()];
-        for (_, m) in readings
-            .iter()
-            .zip(&step1.measured)
-            .filter(|(g, m)| !g.soft && m.support.segments.len() <= 1)
-        {
-            for p in &m.support.points {
-                pinned[p.a as usize] = true;
-                pinned[p.b as usize] = true;
-            }
-        }
+        let pinned = straight_landmarks(readings, &step1.measured, topology.n_vertices());
         let mut x = step1.vertices.clone();
         let (before, after) = folds::smooth_folds(topology, &mean, &mut x, &pinned);
         if after < before {
