@@ -6,7 +6,8 @@
 //! reading that is still refused, a man's soft targets that equal a
 //! woman's, a total whose pieces do not add up to it.
 
-use tapeshape_estimator::{Estimator, Inputs, PredictError, PredictOptions};
+use tapeshape_estimator::{Estimator, Inputs, PredictError, PredictOptions, Warning};
+use tapeshape_model::Warning as ModelWarning;
 use tapeshape_population::ansur::{Ansur, Sex, Split};
 
 fn estimator() -> &'static Estimator {
@@ -776,4 +777,13 @@ fn a_step1_shape_folded_against_the_mean_is_smoothed_before_step2() {
         "the body flips {body} triangles of the mean shape (its step-1 shape {in_space})"
     );
     assert_readings_within_iso(e, &est);
+    // The report says so, with the step-1 shape's own count (flipped or
+    // collapsed, so at least the flipped ones counted here).
+    let said = est.report.warnings.iter().find_map(|w| match w {
+        Warning::Model(ModelWarning::Step1Smoothed { folded, left }) => Some((*folded, *left)),
+        _ => None,
+    });
+    let (folded, left) = said.expect("a step1-smoothed warning");
+    assert!(folded >= in_space, "{folded} folded, {in_space} flipped");
+    assert!(left < folded, "{folded} -> {left}");
 }

@@ -116,14 +116,12 @@ fn an_ansur_survey_is_met_within_iso_with_the_sleeve_outseam_recorded() {
 fn the_folds_step_2_makes_on_real_survey_values_are_smoothed_out_keeping_every_reading() {
     // (subject id, whether the repair leaves nothing folded): 4 -> 2 and
     // 11 -> 0 flipped triangles on this machine (2026-12-07; 11 -> 1 on
-    // 2026-12-05). Subject 10304 (15 -> 0 then) is left out since
-    // 2026-12-07: its step-1 shape flips more than 20 triangles of the
-    // mean and is smoothed before step 2 (`ShapeModel::unfold_step1`), and
-    // step 2 from there ends with waist depth 285.0 mm for his 268.0
-    // (270.3 without the repair and the smoothing), outside ISO 20685-1:
-    // the smoothing, unlike the repair, does not hold the readings. Open
-    // in issue 12's note of 2026-12-07 (evening).
-    const PEOPLE: [(u32, bool); 2] = [(10312, false), (11828, true)];
+    // 2026-12-05), and 10304, whose step-1 shape flips more than 20
+    // triangles of the mean: step 2 from it smoothed
+    // (`ShapeModel::unfold_step1`) ends with waist depth 285.0 mm for his
+    // 268.0, outside ISO 20685-1, so the body kept is step 2's from the
+    // shape as step 1 left it (15 -> 0).
+    const PEOPLE: [(u32, bool); 3] = [(10304, true), (10312, false), (11828, true)];
     let estimator = Estimator::default_model().expect("embedded model");
     let opts = CustomersOptions {
         input_set: "ansur".into(),
@@ -165,6 +163,12 @@ fn the_folds_step_2_makes_on_real_survey_values_are_smoothed_out_keeping_every_r
             "subject {id}: the premise, folds without the repair"
         );
         assert_eq!(smoothed(&off), None, "subject {id}");
+        let step1_smoothed = on
+            .report
+            .warnings
+            .iter()
+            .any(|w| matches!(w, Warning::Model(ModelWarning::Step1Smoothed { .. })));
+        assert_eq!(step1_smoothed, id != 10304, "subject {id}");
         // With the repair on, step 2 may start from a step-1 shape smoothed
         // against the model's mean (`ShapeModel::unfold_step1`), so the
         // body it repairs need not fold as the one without the repair did:

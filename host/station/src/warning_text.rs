@@ -161,6 +161,11 @@ fn model_warning(lang: Lang, w: &ModelWarning) -> String {
             a.set("collapsed", *collapsed);
             t(msg!("warn-triangles"), &a)
         }
+        ModelWarning::Step1Smoothed { folded, left } => {
+            a.set("folded", *folded);
+            a.set("left", *left);
+            t(msg!("warn-step1-smoothed"), &a)
+        }
         ModelWarning::FoldsSmoothed { folded, left } => {
             a.set("folded", *folded);
             a.set("left", *left);
@@ -399,6 +404,10 @@ mod tests {
             Warning::Model(ModelWarning::TrianglesChanged {
                 flipped: 3,
                 collapsed: 1,
+            }),
+            Warning::Model(ModelWarning::Step1Smoothed {
+                folded: 87,
+                left: 0,
             }),
             Warning::Model(ModelWarning::FoldsSmoothed { folded: 9, left: 2 }),
             Warning::Model(ModelWarning::SoftPullReduced {

@@ -184,23 +184,54 @@ impl ShapeModel {
             measurer,
             observer,
         )?;
-        let step1 = if config.step2().fold_repair {
-            self.unfold_step1(step1, &readings, measurer, topology)?
+        let smoothed = if config.step2().fold_repair {
+            self.unfold_step1(&step1, &readings, measurer, topology)
         } else {
-            step1
+            None
         };
         let time_step1 = t.elapsed();
 
         let t = Instant::now();
-        let step2 = self.step2(
-            &readings,
-            &step1,
-            config.step2(),
-            config.rounds(),
-            measurer,
-            topology,
-            observer,
-        )?;
+        let step2_from = |step1: &Step1Shape, observer: &dyn PredictObserver| {
+            self.step2(
+                &readings,
+                step1,
+                config.step2(),
+                config.rounds(),
+                measurer,
+                topology,
+                observer,
+            )
+        };
+        let (step1, step2) = match smoothed {
+            None => {
+                let step2 = step2_from(&step1, observer)?;
+                (step1, step2)
+            }
+            Some(smooth) => {
+                let from_smooth = step2_from(&smooth, observer)?;
+                let missed = self.misses_allowable(&readings, &from_smooth, measurer);
+                if missed == 0 {
+                    (smooth, from_smooth)
+                } else {
+                    // The smoothed start may cost a reading the shape as
+                    // step 1 left it meets (ANSUR II test-split subject
+                    // 10304's waist depth with the `ansur` set): step 2
+                    // from that shape too, kept where it meets more. It
+                    // passes cancelling through but reports no progress
+                    // (the fraction already reached step 2's end).
+                    let quiet = |_: &PredictProgress| {
+                        observer.observe(&PredictProgress::at(PredictStage::Step2))
+                    };
+                    let from_step1 = step2_from(&step1, &quiet)?;
+                    if self.misses_allowable(&readings, &from_step1, measurer) < missed {
+                        (step1, from_step1)
+                    } else {
+                        (smooth, from_smooth)
+                    }
+                }
+            }
+        };
         let time_step2 = t.elapsed();
 
         let mut report = self.report(

@@ -379,6 +379,18 @@ fn straight_landmarks(readings: &Readings, measured: &[Measured], n: usize) -> V
     pinned
 }
 
+/// How many of `readings` (soft targets left out) `measured` (one per
+/// reading) leaves beyond their limit in `limits` (mm, one per reading, as
+/// [`thresholds`] gives them).
+pub(crate) fn misses(readings: &Readings, measured: &[Measured], limits: &[f64]) -> usize {
+    readings
+        .iter()
+        .zip(measured)
+        .zip(limits)
+        .filter(|((g, m), t)| !g.soft && (m.value * MM_PER_M - g.target_mm).abs() > **t)
+        .count()
+}
+
 /// The allowable error (mm) of a reading whose measurer does not know its
 /// own (as [`super::Continuation`]'s default).
 const FOLD_REPAIR_DEFAULT_MM: f64 = 4.0;
@@ -580,23 +592,27 @@ impl ShapeModel {
     /// shape (flipped or collapsed), smooths its displacement from the mean
     /// there
     /// ([`folds::smooth_folds`], the landmarks of straight readings held)
-    /// and measures the readings again on it; kept where it folds fewer
-    /// triangles. Step 2 then starts from it and measures its smoothness
-    /// from it. Why: the learned space is linear, and a shape far along a
-    /// few components can fold the surface where the training bodies do
-    /// not (the head's small features): ANSUR II test-split subject 14812
-    /// (`quick`, with sex) has 87 triangles of the step-1 shape flipped
-    /// against the mean, and its body failed the surface check
-    /// (`docs/results/real-customers/surface-check.md`) whatever step 2
-    /// did. Many step-1 shapes flip a few of the template's slivers, as
-    /// generated bodies do; those are left as they are.
+    /// and measures the readings again on it. Returns that shape, with a
+    /// [`Warning::Step1Smoothed`], where it folds fewer triangles and can
+    /// be measured; `None` where the step-1 shape is to be kept as it is.
+    /// Step 2 may then start from it and measure its smoothness from it
+    /// (`ShapeModel::predict` keeps step 2's result from it unless it
+    /// leaves more readings beyond their allowable error than step 2 from
+    /// `step1` does). Why: the learned space is linear, and a shape far
+    /// along a few components can fold the surface where the training
+    /// bodies do not (the head's small features): ANSUR II test-split
+    /// subject 14812 (`quick`, with sex) has 87 triangles of the step-1
+    /// shape flipped against the mean, and its body failed the surface
+    /// check (`docs/results/real-customers/surface-check.md`) whatever
+    /// step 2 did. Many step-1 shapes flip a few of the template's
+    /// slivers, as generated bodies do; those are left as they are.
     pub(crate) fn unfold_step1(
         &self,
-        mut step1: Step1Shape,
+        step1: &Step1Shape,
         readings: &Readings,
         measurer: &dyn Measurer,
         topology: &Topology,
-    ) -> Result<Step1Shape> {
+    ) -> Option<Step1Shape> {
         // The mean shape (flat, 3V, metres) as points.
         let mean: Vec<Vec3> = self
             .pca
@@ -605,20 +621,44 @@ impl ShapeModel {
             .map(|c| [c[0], c[1], c[2]])
             .collect();
         if folds::folded_faces(topology, &mean, &step1.vertices).len() <= UNFOLD_STEP1_ABOVE {
-            return Ok(step1);
+            return None;
         }
         let pinned = straight_landmarks(readings, &step1.measured, topology.n_vertices());
         let mut x = step1.vertices.clone();
-        let (before, after) = folds::smooth_folds(topology, &mean, &mut x, &pinned);
-        if after < before {
-            // Where the smoothed shape cannot be measured, step 2 starts
-            // from the step-1 shape as it was.
-            if let Ok(measured) = self.measure_checked(measurer, &x, &readings.indices()) {
-                step1.measured = measured;
-                step1.vertices = x;
-            }
+        let (folded, left) = folds::smooth_folds(topology, &mean, &mut x, &pinned);
+        if left >= folded {
+            return None;
         }
-        Ok(step1)
+        // Where the smoothed shape cannot be measured, step 2 starts from
+        // the step-1 shape as it was.
+        let measured = self
+            .measure_checked(measurer, &x, &readings.indices())
+            .ok()?;
+        let mut warnings = step1.warnings.clone();
+        warnings.push(Warning::Step1Smoothed { folded, left });
+        Some(Step1Shape {
+            vertices: x,
+            measured,
+            warnings,
+            ..step1.clone()
+        })
+    }
+
+    /// How many given readings (soft targets left out) `shape` leaves
+    /// beyond their whole allowable error (the measurer's, at least the
+    /// reading's own tolerance).
+    pub(crate) fn misses_allowable(
+        &self,
+        readings: &Readings,
+        shape: &Step2Shape,
+        measurer: &dyn Measurer,
+    ) -> usize {
+        let whole = super::Continuation {
+            share: 1.0,
+            ..Default::default()
+        };
+        let limits = thresholds(readings, &|j| measurer.allowable_error(j), Some(whole));
+        misses(readings, &shape.measured, &limits)
     }
 
     /// Step 2 without the fold repair: the first solver, then the solver
@@ -674,13 +714,7 @@ impl ShapeModel {
             ..Default::default()
         });
         let limits = thresholds(readings, &|j| measurer.allowable_error(j), Some(within));
-        let misses = shape
-            .readings
-            .iter()
-            .zip(&shape.measured)
-            .zip(&limits)
-            .filter(|((g, m), t)| !g.soft && (m.value * MM_PER_M - g.target_mm).abs() > **t)
-            .count();
+        let misses = misses(&shape.readings, &shape.measured, &limits);
         let fell_back = shape
             .warnings
             .iter()

@@ -81,6 +81,17 @@ pub enum Warning {
         /// Triangles collapsed to (near) zero area.
         collapsed: usize,
     },
+    /// The step-1 shape folded `folded` triangles of the model's mean
+    /// shape and was smoothed there before step 2, which left `left`
+    /// folded (see `ShapeModel::unfold_step1`); step 2 started from the
+    /// smoothed shape.
+    Step1Smoothed {
+        /// Triangles of the mean shape the step-1 shape had flipped or
+        /// collapsed.
+        folded: usize,
+        /// Triangles still flipped or collapsed after smoothing.
+        left: usize,
+    },
     /// Step 2 folded `folded` triangles of the step-1 shape and their
     /// neighbourhood was smoothed, which left `left` folded (see
     /// [`super::Step2Settings::fold_repair`]); the readings were measured
@@ -172,6 +183,10 @@ impl std::fmt::Display for Warning {
             Self::TrianglesChanged { flipped, collapsed } => write!(
                 f,
                 "step 2 flipped {flipped} and collapsed {collapsed} triangles: the measurements may be inconsistent"
+            ),
+            Self::Step1Smoothed { folded, left } => write!(
+                f,
+                "the shape space's fit folded {folded} triangles of the surface: smoothed them out before refining, {left} left"
             ),
             Self::FoldsSmoothed { folded, left } => write!(
                 f,

@@ -501,6 +501,7 @@ warn-step1-kept-start = Schritt 1 endete mit höherer { $objective } als der Sta
 warn-step2-kept-round = Schritt 2 endete mit höherer Messenergie als Schritt 1 (E_m { $end } statt { $step1 } mm^4): Form vom Beginn der Runde { $round } beibehalten (E_m { $kept })
 warn-step2-kept-step1 = Schritt 2 endete mit höherer Messenergie als Schritt 1 (E_m { $end } statt { $step1 } mm^4): Form aus Schritt 1 beibehalten
 warn-triangles = Schritt 2 hat { $flipped } Dreiecke umgeklappt und { $collapsed } zusammengedrückt: die Maße passen womöglich nicht zusammen
+warn-step1-smoothed = Die Anpassung im Formraum hat { $folded } Dreiecke der Oberfläche gefaltet: vor der Verfeinerung geglättet, { $left } übrig
 warn-folds-smoothed = Schritt 2 hat { $folded } Dreiecke der Oberfläche gefaltet: geglättet, { $left } übrig
 warn-soft-pull-reduced = Den Statistiken realer Menschen für die nicht gemessenen Maße zu { $asked } % zu folgen, hat die Oberfläche gefaltet oder geknickt: ihnen zu { $pull } % gefolgt
 warn-far-from-population = die Maße liegen weit von der Trainingspopulation entfernt (Mahalanobis-Abstand { $distance } über { $n } Maße): die Form wird auf { $sd } SD gehalten und trifft womöglich nicht alle

@@ -496,6 +496,7 @@ warn-step1-kept-start = step 1 ended with a higher { $objective } than the start
 warn-step2-kept-round = step 2 ended with a higher measurement energy than step 1 (E_m { $end } vs { $step1 } mm^4): kept its shape at the start of round { $round } (E_m { $kept })
 warn-step2-kept-step1 = step 2 ended with a higher measurement energy than step 1 (E_m { $end } vs { $step1 } mm^4): kept the step-1 shape
 warn-triangles = step 2 flipped { $flipped } and collapsed { $collapsed } triangles: the measurements may be inconsistent
+warn-step1-smoothed = the shape space's fit folded { $folded } triangles of the surface: smoothed them out before refining, { $left } left
 warn-folds-smoothed = step 2 folded { $folded } triangles of the surface: smoothed them out, { $left } left
 warn-soft-pull-reduced = following real people's statistics for the dimensions not measured { $asked } % of the way folded or creased the surface: followed them { $pull } %
 warn-far-from-population = the measurements are far from the training population (Mahalanobis distance { $distance } over { $n } measurements): the shape is held to { $sd } SD and may not fit them all
