@@ -6,125 +6,150 @@
 //!     --set quick --sex --out docs/results/real-customers-quick.md [--per-sex N]
 //! ```
 //!
-//! Options: `--set quick|ansur` (the input), `--sex` (give each person's
-//! sex), `--per-sex N` (the first N of each sex by id; default all),
-//! `--leave-out COLUMN` (repeatable: an ANSUR column not entered),
-//! `--ansur-survey` (the values are ANSUR's own, as `tapeshape predict
-//! --ansur-survey` takes them: the dimensions the standing mesh cannot take
-//! as ANSUR does are recorded, not fitted, and left out of the ISO share),
-//! `--first none|smooth` (step 2's solver tried first, see
-//! `tapeshape_model::Step2Settings::first`),
-//! `--soft-pull SHARE` (`tapeshape_model::Step2Settings::soft_pull`),
-//! `--breadths-and-depths` / `--no-breadths-and-depths` (soft targets for
-//! chest depth, hip and waist breadth, waist depth, interscye I too, or
-//! not: `tapeshape_estimator::RealPeople::breadths_and_depths`, on by
-//! default),
-//! `--model FILE` (a model file instead of the embedded default: measure a
-//! candidate before `scripts/rebuild-default-model.sh` embeds it),
-//! `--out FILE` (the Markdown page; default: print it),
-//! `--surface-train FILE.tsd` (check every body's surface against the
-//! envelope of that dataset's bodies with the calibrated rule,
-//! `tapeshape_eval::surface`; the model's training population),
-//! `--surface-held FILE.tsd` (calibrate the rule on those generated
-//! held-out bodies instead of using the embedded model's).
+//! Options: `--help` lists them (the input set, with or without each
+//! person's sex, how many people, columns left out, step 2's settings, the
+//! real-people soft targets, a model file instead of the embedded default,
+//! the surface check, where the page goes).
 
 use std::process::ExitCode;
 
+use clap::{Parser, ValueEnum};
 use tapeshape_eval::customers::{markdown, run_with_surface, surface_markdown, CustomersOptions};
 use tapeshape_eval::surface::SurfaceCheck;
 
+/// Every ANSUR II test-split person through the station's estimator (the
+/// embedded default model, default settings), writing a results page.
+#[derive(Parser)]
+// A flag given twice takes its last value, as the hand-written loop did.
+#[command(args_override_self = true)]
+struct Args {
+    /// The input set: `quick` or `ansur` (or another built-in set or a set
+    /// file); its measurements with an ANSUR column are entered.
+    #[arg(long, default_value = "quick", value_parser = input_set)]
+    set: String,
+    /// Give each person's sex.
+    #[arg(long)]
+    sex: bool,
+    /// The first N of each sex by id (default: all).
+    #[arg(long, value_name = "N")]
+    per_sex: Option<usize>,
+    /// An ANSUR column not entered (repeatable).
+    #[arg(long, value_name = "COLUMN")]
+    leave_out: Vec<String>,
+    /// The values are ANSUR's own, as `tapeshape predict --ansur-survey`
+    /// takes them: the dimensions the standing mesh cannot take as ANSUR
+    /// does are recorded, not fitted, and left out of the ISO share.
+    #[arg(long)]
+    ansur_survey: bool,
+    /// No real-people soft targets: the model alone (whatever
+    /// `--breadths-and-depths` says).
+    #[arg(long)]
+    no_real_people: bool,
+    /// Step 2's solver tried first (`tapeshape_model::Step2Settings::first`):
+    /// `none` (step 2's solver alone) or `smooth` (the template's smooth
+    /// basis).
+    #[arg(long, value_enum)]
+    first: Option<First>,
+    /// Step 2's soft pull, a share in [0, 1]
+    /// (`tapeshape_model::Step2Settings::soft_pull`).
+    #[arg(long, value_name = "SHARE", allow_negative_numbers = true)]
+    soft_pull: Option<f64>,
+    /// Soft targets for chest depth, hip and waist breadth, waist depth and
+    /// interscye I too (`tapeshape_estimator::RealPeople::breadths_and_depths`;
+    /// on by default).
+    #[arg(long, overrides_with = "no_breadths_and_depths")]
+    breadths_and_depths: bool,
+    /// No soft targets for those breadths and depths.
+    #[arg(long, overrides_with = "breadths_and_depths")]
+    no_breadths_and_depths: bool,
+    /// A model file instead of the embedded default: measure a candidate
+    /// before `scripts/rebuild-default-model.sh` embeds it.
+    #[arg(long, value_name = "FILE")]
+    model: Option<String>,
+    /// The Markdown page (default: print it).
+    #[arg(long, value_name = "FILE")]
+    out: Option<String>,
+    /// Check every body's surface against the envelope of that dataset's
+    /// bodies with the calibrated rule (`tapeshape_eval::surface`): the
+    /// model's training population.
+    #[arg(long, value_name = "FILE.tsd")]
+    surface_train: Option<String>,
+    /// Calibrate the surface check's rule on those generated held-out
+    /// bodies instead of using the embedded model's.
+    #[arg(long, value_name = "FILE.tsd")]
+    surface_held: Option<String>,
+}
+
+/// `--first`'s values.
+#[derive(Clone, Copy, ValueEnum)]
+enum First {
+    None,
+    Smooth,
+}
+
+/// `--set`'s value, checked: a set `tapeshape_measure::MeasurementSet::load`
+/// takes.
+fn input_set(name: &str) -> Result<String, String> {
+    tapeshape_measure::MeasurementSet::load(name)
+        .map(|_| name.to_string())
+        .map_err(|e| e.to_string())
+}
+
 fn main() -> ExitCode {
+    // The command as given, for the page.
+    let given: Vec<String> = std::env::args().skip(1).collect();
+    let args = Args::parse();
     let mut opts = CustomersOptions {
-        input_set: "quick".into(),
-        with_sex: false,
-        per_sex: None,
-        leave_out: Vec::new(),
-        ansur_survey: false,
+        input_set: args.set,
+        with_sex: args.sex,
+        per_sex: args.per_sex,
+        leave_out: args.leave_out,
+        ansur_survey: args.ansur_survey,
         options: tapeshape_estimator::PredictOptions::default(),
     };
-    let mut out = None;
-    let mut model: Option<String> = None;
-    let mut surface_train: Option<String> = None;
-    let mut surface_held: Option<String> = None;
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = |what: &str| {
-            it.next()
-                .cloned()
-                .ok_or_else(|| format!("{a} needs {what}"))
+    // The options that change `opts.options` are applied in one fixed
+    // order: --no-real-people, --first, --soft-pull, then
+    // --breadths-and-depths / --no-breadths-and-depths (the last of the
+    // two given wins). The hand-written loop applied them in the order
+    // given, with the same result in every order: --first and --soft-pull
+    // set different fields of step 2's settings and each keeps the soft
+    // targets as they were; --breadths-and-depths changes only the soft
+    // targets and leaves none when there are none; --no-real-people
+    // leaves none whatever came before or after it.
+    if args.no_real_people {
+        opts.options.real_people = Some(None);
+    }
+    if let Some(first) = args.first {
+        let mut settings = opts.options.settings();
+        settings.step2.first = match first {
+            First::None => None,
+            First::Smooth => Some(tapeshape_model::Step2Solver::smooth_basis()),
         };
-        let r: Result<(), String> = match a.as_str() {
-            "--set" => value("a set name").map(|v| opts.input_set = v),
-            "--sex" => {
-                opts.with_sex = true;
-                Ok(())
+        // The station's real-people soft targets stay on.
+        opts.options.real_people = Some(opts.options.real_people());
+        opts.options.pipeline = tapeshape_estimator::Pipeline::Custom(Box::new(settings));
+    }
+    if let Some(pull) = args.soft_pull {
+        match tapeshape_eval::customers::with_soft_pull(&opts.options, pull) {
+            Ok(o) => opts.options = o,
+            Err(e) => {
+                eprintln!("error: --soft-pull {pull}: {e}");
+                return ExitCode::from(2);
             }
-            "--per-sex" => value("a count").and_then(|v| {
-                v.parse()
-                    .map(|n| opts.per_sex = Some(n))
-                    .map_err(|e| format!("--per-sex {v}: {e}"))
-            }),
-            "--no-real-people" => {
-                opts.options.real_people = Some(None);
-                Ok(())
-            }
-            "--first" => value("none or smooth").and_then(|v| {
-                let mut settings = opts.options.settings();
-                settings.step2.first = match v.as_str() {
-                    "none" => None,
-                    "smooth" => Some(tapeshape_model::Step2Solver::smooth_basis()),
-                    other => return Err(format!("--first {other}: none or smooth")),
-                };
-                // The station's real-people soft targets stay on.
-                opts.options.real_people = Some(opts.options.real_people());
-                opts.options.pipeline = tapeshape_estimator::Pipeline::Custom(Box::new(settings));
-                Ok(())
-            }),
-            "--soft-pull" => value("a share in [0, 1]").and_then(|v| {
-                let pull: f64 = v.parse().map_err(|e| format!("--soft-pull {v}: {e}"))?;
-                opts.options = tapeshape_eval::customers::with_soft_pull(&opts.options, pull)
-                    .map_err(|e| format!("--soft-pull {v}: {e}"))?;
-                Ok(())
-            }),
-            "--breadths-and-depths" => {
-                let r = opts
-                    .options
-                    .real_people()
-                    .map(|r| tapeshape_estimator::RealPeople {
-                        breadths_and_depths: true,
-                        ..r
-                    });
-                opts.options.real_people = Some(r);
-                Ok(())
-            }
-            "--no-breadths-and-depths" => {
-                let r = opts
-                    .options
-                    .real_people()
-                    .map(|r| tapeshape_estimator::RealPeople {
-                        breadths_and_depths: false,
-                        ..r
-                    });
-                opts.options.real_people = Some(r);
-                Ok(())
-            }
-            "--leave-out" => value("an ANSUR column").map(|v| opts.leave_out.push(v)),
-            "--ansur-survey" => {
-                opts.ansur_survey = true;
-                Ok(())
-            }
-            "--out" => value("a file").map(|v| out = Some(v)),
-            "--model" => value("a model file").map(|v| model = Some(v)),
-            "--surface-train" => value("a dataset file").map(|v| surface_train = Some(v)),
-            "--surface-held" => value("a dataset file").map(|v| surface_held = Some(v)),
-            other => Err(format!("unknown argument {other} (see the file's docs)")),
-        };
-        if let Err(e) = r {
-            eprintln!("error: {e}");
-            return ExitCode::from(2);
         }
     }
+    if args.breadths_and_depths || args.no_breadths_and_depths {
+        let r = opts
+            .options
+            .real_people()
+            .map(|r| tapeshape_estimator::RealPeople {
+                breadths_and_depths: args.breadths_and_depths,
+                ..r
+            });
+        opts.options.real_people = Some(r);
+    }
+    let (out, model) = (args.out, args.model);
+    let (surface_train, surface_held) = (args.surface_train, args.surface_held);
     let owned;
     let loaded = match &model {
         None => tapeshape_estimator::Estimator::default_model(),
@@ -172,7 +197,7 @@ fn main() -> ExitCode {
     };
     let command = format!(
         "cargo run --release -p tapeshape-eval --example real_customers -- {}",
-        args.join(" ")
+        given.join(" ")
     );
     let mut page = markdown(&result, &opts, &command);
     if let (Some(check), Some(path)) = (&check, &surface_train) {

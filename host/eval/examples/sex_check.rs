@@ -11,27 +11,77 @@
 //!     --png docs/results/sex-check/quick.png --csv docs/results/sex-check/quick.csv
 //! ```
 //!
-//! Options: `--set quick|ansur` (the input; default quick), `--per-sex N`
-//! (the first N of each sex by id; default all), `--out FILE` (the
-//! Markdown page; default: print it), `--png FILE` (score histograms),
-//! `--csv FILE` (every person's scores), `--model FILE` (a model file
-//! instead of the embedded default), `--population FILE` (the model's
-//! training population as a population table,
-//! `tapeshape_eval::poptable`, made by the `population_table` example:
-//! adds the two axes fitted on it; the embedded default's is
-//! `host/eval/data/default-population.csv`), `--soft-pull SHARE` (step 2's
-//! `tapeshape_model::Step2Settings::soft_pull` instead of the station's).
+//! Options: `--help` lists them (the input set, how many people, the page,
+//! histogram and CSV files, a model file, the model's training population
+//! for two more axes, step 2's soft pull).
 
 use std::path::Path;
 use std::process::ExitCode;
 
+use clap::Parser;
 use tapeshape_eval::customers::{run, CustomersOptions};
 use tapeshape_eval::poptable::PopulationTable;
 use tapeshape_eval::sexcheck::{csv, histogram, markdown, score_run, Group, SexAxis};
 use tapeshape_population::ansur::Ansur;
 
+/// The sex check on every ANSUR II test-split person: their estimates with
+/// and without their sex, scored on the discriminant axes between the sexes.
+#[derive(Parser)]
+// A flag given twice takes its last value, as the hand-written loop did.
+#[command(args_override_self = true)]
+struct Args {
+    /// The input set: `quick` or `ansur` (or another built-in set or a set
+    /// file); its measurements with an ANSUR column are entered.
+    #[arg(long, default_value = "quick", value_parser = input_set)]
+    set: String,
+    /// The first N of each sex by id (default: all).
+    #[arg(long, value_name = "N")]
+    per_sex: Option<usize>,
+    /// The Markdown page (default: print it).
+    #[arg(long, value_name = "FILE")]
+    out: Option<String>,
+    /// Score histograms (PNG).
+    #[arg(long, value_name = "FILE")]
+    png: Option<String>,
+    /// Every person's scores (CSV).
+    #[arg(long, value_name = "FILE")]
+    csv: Option<String>,
+    /// A model file instead of the embedded default.
+    #[arg(long, value_name = "FILE")]
+    model: Option<String>,
+    /// The model's training population as a population table
+    /// (`tapeshape_eval::poptable`, made by the `population_table` example):
+    /// adds the two axes fitted on it. The embedded default's is
+    /// `host/eval/data/default-population.csv`.
+    #[arg(long, value_name = "FILE")]
+    population: Option<String>,
+    /// Step 2's soft pull, a share in [0, 1]
+    /// (`tapeshape_model::Step2Settings::soft_pull`), instead of the
+    /// station's.
+    #[arg(long, value_name = "SHARE", allow_negative_numbers = true)]
+    soft_pull: Option<f64>,
+}
+
+/// `--set`'s value, checked: a set `tapeshape_measure::MeasurementSet::load`
+/// takes.
+fn input_set(name: &str) -> Result<String, String> {
+    tapeshape_measure::MeasurementSet::load(name)
+        .map(|_| name.to_string())
+        .map_err(|e| e.to_string())
+}
+
 fn main() -> ExitCode {
-    match real_main() {
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::FAILURE;
+        }
+        Err(e) => e.exit(),
+    };
+    match real_main(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
@@ -40,39 +90,23 @@ fn main() -> ExitCode {
     }
 }
 
-fn real_main() -> Result<(), String> {
-    let mut set = "quick".to_string();
-    let mut per_sex = None;
-    let (mut out, mut png, mut csv_out) = (None, None, None);
-    let (mut model, mut population) = (None, None);
+fn real_main(args: Args) -> Result<(), String> {
+    // The command as given, for the page.
+    let given: Vec<String> = std::env::args().skip(1).collect();
+    let Args {
+        set,
+        per_sex,
+        out,
+        png,
+        csv: csv_out,
+        model,
+        population,
+        soft_pull,
+    } = args;
     let mut options = tapeshape_estimator::PredictOptions::default();
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = |what: &str| {
-            it.next()
-                .cloned()
-                .ok_or_else(|| format!("{a} needs {what}"))
-        };
-        match a.as_str() {
-            "--set" => set = value("a set name")?,
-            "--per-sex" => {
-                let v = value("a count")?;
-                per_sex = Some(v.parse().map_err(|e| format!("--per-sex {v}: {e}"))?);
-            }
-            "--out" => out = Some(value("a file")?),
-            "--png" => png = Some(value("a file")?),
-            "--csv" => csv_out = Some(value("a file")?),
-            "--model" => model = Some(value("a model file")?),
-            "--population" => population = Some(value("a population table")?),
-            "--soft-pull" => {
-                let v = value("a share in [0, 1]")?;
-                let pull: f64 = v.parse().map_err(|e| format!("--soft-pull {v}: {e}"))?;
-                options = tapeshape_eval::customers::with_soft_pull(&options, pull)
-                    .map_err(|e| format!("--soft-pull {v}: {e}"))?;
-            }
-            other => return Err(format!("unknown argument {other} (see the file's docs)")),
-        }
+    if let Some(pull) = soft_pull {
+        options = tapeshape_eval::customers::with_soft_pull(&options, pull)
+            .map_err(|e| format!("--soft-pull {pull}: {e}"))?;
     }
     let ansur = Ansur::get().map_err(|e| e.to_string())?;
     let mut axes = vec![
@@ -120,7 +154,7 @@ fn real_main() -> Result<(), String> {
     }
     let command = format!(
         "cargo run --release -p tapeshape-eval --example sex_check -- {}",
-        args.join(" ")
+        given.join(" ")
     );
     let page = markdown(&axes, &groups, &set, &command);
     let write = |f: &str, bytes: &[u8]| {

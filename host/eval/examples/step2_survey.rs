@@ -19,13 +19,15 @@
 //! cargo run --release -p tapeshape-eval --example step2_survey -- --set quick [--soft-pull S] [--ansur-survey]
 //! ```
 //!
-//! Prints one line. Why it exists: a change to step 2's solver moves these
-//! counts over real people, not only on the bench's one generated body
-//! (`docs/results/predict-bench.md`, 2026-12-07).
+//! Options: `--help` lists them. Prints one line. Why it exists: a change
+//! to step 2's solver moves these counts over real people, not only on the
+//! bench's one generated body (`docs/results/predict-bench.md`,
+//! 2026-12-07).
 
 use std::process::ExitCode;
 use std::time::Instant;
 
+use clap::Parser;
 use rayon::prelude::*;
 use tapeshape_estimator::{Estimator, PredictOptions};
 use tapeshape_eval::customers::{
@@ -34,8 +36,47 @@ use tapeshape_eval::customers::{
 use tapeshape_model::Warning;
 use tapeshape_population::ansur::Ansur;
 
+/// How step 2's solvers go on every ANSUR II test-split person.
+#[derive(Parser)]
+// A flag given twice takes its last value, as the hand-written loop did.
+#[command(args_override_self = true)]
+struct Args {
+    /// The input set: `quick` or `ansur` (or another built-in set or a set
+    /// file); its measurements with an ANSUR column are entered.
+    #[arg(long, default_value = "quick", value_parser = input_set)]
+    set: String,
+    /// The values are ANSUR's own, as `tapeshape predict --ansur-survey`
+    /// takes them: the dimensions the standing mesh cannot take as ANSUR
+    /// does are recorded, not fitted.
+    #[arg(long)]
+    ansur_survey: bool,
+    /// Step 2's soft pull, a share in [0, 1]
+    /// (`tapeshape_model::Step2Settings::soft_pull`), instead of the
+    /// station's.
+    #[arg(long, value_name = "SHARE", allow_negative_numbers = true)]
+    soft_pull: Option<f64>,
+}
+
+/// `--set`'s value, checked: a set `tapeshape_measure::MeasurementSet::load`
+/// takes.
+fn input_set(name: &str) -> Result<String, String> {
+    tapeshape_measure::MeasurementSet::load(name)
+        .map(|_| name.to_string())
+        .map_err(|e| e.to_string())
+}
+
 fn main() -> ExitCode {
-    match real_main() {
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::FAILURE;
+        }
+        Err(e) => e.exit(),
+    };
+    match real_main(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
@@ -54,29 +95,15 @@ struct Counted {
     seconds: f64,
 }
 
-fn real_main() -> Result<(), String> {
-    let mut set = "quick".to_string();
-    let mut survey = false;
+fn real_main(args: Args) -> Result<(), String> {
+    let Args {
+        set,
+        ansur_survey: survey,
+        soft_pull,
+    } = args;
     let mut options = PredictOptions::default();
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = |what: &str| {
-            it.next()
-                .cloned()
-                .ok_or_else(|| format!("{a} needs {what}"))
-        };
-        match a.as_str() {
-            "--set" => set = value("a set name")?,
-            "--ansur-survey" => survey = true,
-            "--soft-pull" => {
-                let v = value("a share in [0, 1]")?;
-                let pull: f64 = v.parse().map_err(|e| format!("--soft-pull {v}: {e}"))?;
-                options =
-                    with_soft_pull(&options, pull).map_err(|e| format!("--soft-pull {v}: {e}"))?;
-            }
-            other => return Err(format!("unknown argument {other} (see the file's docs)")),
-        }
+    if let Some(pull) = soft_pull {
+        options = with_soft_pull(&options, pull).map_err(|e| format!("--soft-pull {pull}: {e}"))?;
     }
     let estimator = Estimator::default_model().map_err(|e| e.to_string())?;
     let opts = CustomersOptions {
