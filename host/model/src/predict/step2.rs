@@ -55,7 +55,8 @@
 //! more than `folds::CREASES_ALLOWED` edges whose fold grew by more than
 //! `folds::CREASE_DEG` from the step-1 shape: ridges the repair does not
 //! see), all of the above runs again with a smaller share of the pull
-//! (`SOFT_PULL_SHARES`), and the body that folds least is kept, with
+//! (`SOFT_PULL_SHARES`), and the body that folds least is kept (fewest
+//! folded triangles, then fewest creased edges beyond those allowed), with
 //! [`Warning::SoftPullReduced`] when it is not the first: the readings are
 //! the customer, the soft targets a statistic.
 //!
@@ -316,9 +317,10 @@ fn soft_and_pulled(g: &super::readings::Reading, m: &Measured) -> bool {
 
 /// The shares of [`super::Step2Settings::soft_pull`] step 2 runs with, in
 /// turn, while its body (after the fold repair) still folds triangles of the
-/// step-1 shape or has more than `folds::CREASES_ALLOWED` creased edges
-/// (counted with the folded triangles, see `step2`); the body that folds
-/// least is kept, the first of equals.
+/// step-1 shape or has more than `folds::CREASES_ALLOWED` creased edges;
+/// the body that folds least is kept (fewest flipped or collapsed
+/// triangles, then fewest creased edges beyond those allowed), the first
+/// of equals.
 /// Why: a soft target is a statistic of real people, not the customer, and
 /// following it all the way can pull the surface through itself (the crotch
 /// path, the navel, the head: on all 1,505 ANSUR II test-split people
@@ -391,6 +393,20 @@ pub(crate) fn misses(readings: &Readings, measured: &[Measured], limits: &[f64])
         .count()
 }
 
+/// How much a soft-pull try's body folds, to be compared as a tuple (less
+/// is better): its `folded` triangles (flipped or collapsed) first, then
+/// its `creased` edges where more than `folds::CREASES_ALLOWED`. Why this
+/// order: a flipped triangle is a surface through itself, which no reading
+/// excuses; a few creases more are a rougher surface.
+fn fold_rank(folded: usize, creased: usize) -> (usize, usize) {
+    let excess = if creased > folds::CREASES_ALLOWED {
+        creased
+    } else {
+        0
+    };
+    (folded, excess)
+}
+
 /// The allowable error (mm) of a reading whose measurer does not know its
 /// own (as [`super::Continuation`]'s default).
 const FOLD_REPAIR_DEFAULT_MM: f64 = 4.0;
@@ -423,8 +439,10 @@ impl ShapeModel {
                 .zip(&step1.measured)
                 .any(|(g, m)| soft_and_pulled(g, m));
         let shares: &[f64] = if pulled { &SOFT_PULL_SHARES } else { &[1.0] };
-        // The body that folds least, the first (largest pull) of equals.
-        let mut best: Option<(usize, Step2Shape)> = None;
+        // The body that folds least, the first (largest pull) of equals:
+        // flipped or collapsed triangles first, then creased edges beyond
+        // those allowed (a flipped triangle is never traded for creases).
+        let mut best: Option<((usize, usize), Step2Shape)> = None;
         for (i, &share) in shares.iter().enumerate() {
             let tried = Step2Config {
                 soft_pull: config.soft_pull * share,
@@ -449,22 +467,21 @@ impl ShapeModel {
             } else {
                 0
             };
-            let folded = folds::folded_faces(topology, &step1.vertices, &shape.vertices).len()
-                + if creased > folds::CREASES_ALLOWED {
-                    creased
-                } else {
-                    0
-                };
-            if i > 0 && folded < best.as_ref().map_or(usize::MAX, |b| b.0) {
+            let folded = fold_rank(
+                folds::folded_faces(topology, &step1.vertices, &shape.vertices).len(),
+                creased,
+            );
+            let better = best.as_ref().is_none_or(|b| folded < b.0);
+            if i > 0 && better {
                 shape.warnings.push(Warning::SoftPullReduced {
                     pull: tried.soft_pull,
                     asked: config.soft_pull,
                 });
             }
-            if best.as_ref().is_none_or(|b| folded < b.0) {
+            if better {
                 best = Some((folded, shape));
             }
-            if folded == 0 {
+            if folded == (0, 0) {
                 break;
             }
         }
@@ -883,5 +900,25 @@ impl ShapeModel {
             warnings,
             first: None,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_flipped_triangle_ranks_worse_than_any_number_of_creases() {
+        let allowed = folds::CREASES_ALLOWED;
+        // Creases up to the allowance do not count.
+        assert_eq!(fold_rank(0, allowed), (0, 0));
+        assert_eq!(fold_rank(2, allowed), (2, 0));
+        // Beyond it, all of them count.
+        assert_eq!(fold_rank(0, allowed + 1), (0, allowed + 1));
+        // One flipped triangle and a smooth surface is worse than none
+        // flipped and many creases (a sum would say the reverse).
+        assert!(fold_rank(0, 10 * allowed) < fold_rank(1, 0));
+        // Among equal flips, fewer creases win.
+        assert!(fold_rank(3, allowed + 5) < fold_rank(3, allowed + 6));
     }
 }
