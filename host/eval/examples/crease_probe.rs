@@ -14,18 +14,15 @@
 //!     [--leave-out COL,COL]
 //! ```
 //!
-//! Variants, for a mixing factor `a` from 1 to 0: `blend` (default) the
-//! vertices `x1 + a (x2 - x1)` between step 1's shape `x1` and the result
-//! `x2`; `shrink` the PCA shape of `a` times step 1's weights; `trunc` the
-//! PCA shape of step 1's first `100 a` weights. `--l`, `--lambda` and
-//! `--bending` set the step-1 clamp, step 2's smoothness weight and its
-//! bending term; `--solver2 gn` runs step 2 by sparse Gauss-Newton; `--leave-out` drops
-//! ANSUR II columns from the input. Also printed: how many of step 1's
+//! Options: `--help` lists them (the two datasets, the input set, how many
+//! people, the way of mixing, step 1's clamp, step 2's smoothness, bending
+//! and solver, columns left out). Also printed: how many of step 1's
 //! weights sit at the clamp (|w| > 0.999 l). The embedded default model.
 
 use std::path::Path;
 use std::process::ExitCode;
 
+use clap::{Parser, ValueEnum};
 use rayon::prelude::*;
 use tapeshape_eval::customers::{
     entered_readings, inputs_of, measuring_set, test_people, within_iso, CustomersOptions,
@@ -34,8 +31,114 @@ use tapeshape_eval::surface::SurfaceCheck;
 use tapeshape_population::ansur::Ansur;
 use tapeshape_population::Dataset;
 
+/// Where the creases of bodies estimated from many readings come from: the
+/// estimate's step-1 shape and final shape mixed, each mix judged by the
+/// surface check and the ISO 20685-1 pass share of the entered readings.
+#[derive(Parser)]
+// A flag given twice takes its last value (the hand-written lookup took
+// the first).
+#[command(args_override_self = true)]
+struct Args {
+    /// The model's training population: the surface check's envelope.
+    #[arg(long, value_name = "POP.tsd")]
+    train: String,
+    /// Held-out generated bodies: the surface check's rule is calibrated
+    /// on them.
+    #[arg(long, value_name = "HELD.tsd")]
+    held: String,
+    /// The input set: `ansur` or `quick` (or another built-in set or a set
+    /// file); its measurements with an ANSUR column are entered, with each
+    /// person's sex.
+    #[arg(long, default_value = "ansur", value_parser = input_set)]
+    set: String,
+    /// The first N test-split people of each sex by id.
+    #[arg(long, value_name = "N", default_value_t = 8)]
+    per_sex: usize,
+    /// How step 1's shape and the result are mixed, for a mixing factor
+    /// `a` from 1 to 0.
+    #[arg(long, value_enum, default_value_t = Variant::Blend)]
+    variant: Variant,
+    /// Step 1's clamp of the normalised PCA weights, in SDs
+    /// (`tapeshape_estimator::PredictOptions::l`; default: the station's).
+    #[arg(long, value_name = "L", allow_negative_numbers = true)]
+    l: Option<f64>,
+    /// Step 2's smoothness weight
+    /// (`tapeshape_estimator::PredictOptions::lambda`; default: the
+    /// station's).
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    lambda: Option<f64>,
+    /// Step 2's bending term
+    /// (`tapeshape_estimator::PredictOptions::bending`; default: the
+    /// station's).
+    #[arg(long, value_name = "MU", allow_negative_numbers = true)]
+    bending: Option<f64>,
+    /// Step 2's solver: `lbfgs` (the station's) or `gn` (sparse
+    /// Gauss-Newton); the rest as the station's, its real-people soft
+    /// targets kept.
+    #[arg(long, value_enum, default_value_t = Solver2::Lbfgs)]
+    solver2: Solver2,
+    /// ANSUR II columns not entered, separated by commas (`A,B`).
+    #[arg(
+        long,
+        value_name = "COL,COL",
+        value_delimiter = ',',
+        action = clap::ArgAction::Set
+    )]
+    leave_out: Vec<String>,
+}
+
+/// `--variant`'s values.
+#[derive(Clone, Copy, ValueEnum)]
+enum Variant {
+    /// The vertices `x1 + a (x2 - x1)` between step 1's shape `x1` and the
+    /// result `x2`.
+    Blend,
+    /// The PCA shape of `a` times step 1's weights.
+    Shrink,
+    /// The PCA shape of step 1's first `100 a` weights.
+    Trunc,
+}
+
+impl Variant {
+    /// The name `--variant` takes, for the printed heading.
+    fn name(self) -> &'static str {
+        match self {
+            Variant::Blend => "blend",
+            Variant::Shrink => "shrink",
+            Variant::Trunc => "trunc",
+        }
+    }
+}
+
+/// `--solver2`'s values.
+#[derive(Clone, Copy, ValueEnum)]
+enum Solver2 {
+    /// L-BFGS, the station's.
+    Lbfgs,
+    /// Sparse Gauss-Newton.
+    Gn,
+}
+
+/// `--set`'s value, checked: a set `tapeshape_measure::MeasurementSet::load`
+/// takes.
+fn input_set(name: &str) -> Result<String, String> {
+    tapeshape_measure::MeasurementSet::load(name)
+        .map(|_| name.to_string())
+        .map_err(|e| e.to_string())
+}
+
 fn main() -> ExitCode {
-    match real_main() {
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::FAILURE;
+        }
+        Err(e) => e.exit(),
+    };
+    match real_main(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
@@ -48,51 +151,39 @@ fn main() -> ExitCode {
 /// readings within ISO, readings).
 type Row = Vec<(bool, f64, usize, usize)>;
 
-fn real_main() -> Result<(), String> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let get = |name: &str| {
-        args.iter()
-            .position(|a| a == name)
-            .and_then(|i| args.get(i + 1).cloned())
-    };
-    let train = get("--train").ok_or("--train POP.tsd is needed (the model's population)")?;
-    let held = get("--held").ok_or("--held HELD.tsd is needed (held-out generated bodies)")?;
-    let set = get("--set").unwrap_or_else(|| "ansur".into());
-    let per_sex: usize = get("--per-sex")
-        .unwrap_or_else(|| "8".into())
-        .parse()
-        .map_err(|e| format!("--per-sex: {e}"))?;
-    let variant = get("--variant").unwrap_or_else(|| "blend".into());
-    if !["blend", "shrink", "trunc"].contains(&variant.as_str()) {
-        return Err(format!("--variant {variant}: blend, shrink or trunc"));
-    }
+fn real_main(args: Args) -> Result<(), String> {
+    let Args {
+        train,
+        held,
+        set,
+        per_sex,
+        variant,
+        l,
+        lambda,
+        bending,
+        solver2,
+        leave_out,
+    } = args;
     let est = tapeshape_estimator::Estimator::default_model().map_err(|e| e.to_string())?;
     // The station's pipeline (with its real-people soft targets), with the
     // clamp and smoothness given.
     // `--solver2 gn`: step 2 by the sparse Gauss-Newton solver, the rest
     // as the station's (its real-people soft targets kept).
     let mut station = tapeshape_model::PredictSettings::default();
-    match get("--solver2").as_deref() {
-        None | Some("lbfgs") => {}
-        Some("gn") => {
+    match solver2 {
+        Solver2::Lbfgs => {}
+        Solver2::Gn => {
             station.step2.solver = tapeshape_model::Step2Solver::GaussNewton {
                 stop: Default::default(),
             }
         }
-        Some(other) => return Err(format!("--solver2 {other}: lbfgs or gn")),
     }
     let options = tapeshape_estimator::PredictOptions {
         pipeline: tapeshape_estimator::Pipeline::Custom(Box::new(station)),
         real_people: Some(Some(tapeshape_estimator::RealPeople::default())),
-        l: get("--l")
-            .map(|v| v.parse().map_err(|e| format!("--l: {e}")))
-            .transpose()?,
-        lambda: get("--lambda")
-            .map(|v| v.parse().map_err(|e| format!("--lambda: {e}")))
-            .transpose()?,
-        bending: get("--bending")
-            .map(|v| v.parse().map_err(|e| format!("--bending: {e}")))
-            .transpose()?,
+        l,
+        lambda,
+        bending,
         ..Default::default()
     };
     let l = options.settings().l;
@@ -100,9 +191,7 @@ fn real_main() -> Result<(), String> {
         input_set: set.clone(),
         with_sex: true,
         per_sex: Some(per_sex),
-        leave_out: get("--leave-out")
-            .map(|v| v.split(',').map(String::from).collect())
-            .unwrap_or_default(),
+        leave_out,
         ansur_survey: false,
         options,
     };
@@ -128,9 +217,11 @@ fn real_main() -> Result<(), String> {
             let row = factors
                 .iter()
                 .map(|&a| {
-                    let x = match variant.as_str() {
-                        "shrink" => model.shape(&w1.iter().map(|w| a * w).collect::<Vec<_>>()),
-                        "trunc" => {
+                    let x = match variant {
+                        Variant::Shrink => {
+                            model.shape(&w1.iter().map(|w| a * w).collect::<Vec<_>>())
+                        }
+                        Variant::Trunc => {
                             let keep = (a * w1.len() as f64).round() as usize;
                             let w: Vec<f64> = w1
                                 .iter()
@@ -139,7 +230,7 @@ fn real_main() -> Result<(), String> {
                                 .collect();
                             model.shape(&w)
                         }
-                        _ => Ok(x1
+                        Variant::Blend => Ok(x1
                             .iter()
                             .zip(x2)
                             .map(|(p, q)| std::array::from_fn(|c| p[c] + a * (q[c] - p[c])))
@@ -166,9 +257,10 @@ fn real_main() -> Result<(), String> {
     let mut clamp: Vec<usize> = results.iter().map(|r| r.1).collect();
     clamp.sort_unstable();
     println!(
-        "`{}` input, {} people ({per_sex} per sex), variant {variant}, l {l}, surface rule {:.1} deg / {:.2} %; step-1 weights at the clamp per person: median {}, range {}-{}\n",
+        "`{}` input, {} people ({per_sex} per sex), variant {}, l {l}, surface rule {:.1} deg / {:.2} %; step-1 weights at the clamp per person: median {}, range {}-{}\n",
         set,
         results.len(),
+        variant.name(),
         check.rule.delta.to_degrees(),
         100.0 * check.rule.max_share,
         clamp[clamp.len() / 2],

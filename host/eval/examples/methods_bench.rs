@@ -11,12 +11,14 @@
 //! `paper34`, every measurement given. Train time is one run (wall clock);
 //! predict time is the median over the held-out bodies. The PCA fit is
 //! timed once and shared by every PCA-based method (each method's
-//! `from_model`), so their train times exclude it.
+//! `from_model`), so their train times exclude it. `--help` lists the
+//! arguments.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use clap::Parser;
 use tapeshape_eval::methods::{
     FeatureAnalysis, GeneratorFit, GeneratorFitSettings, Ours, RbfInterpolation, RbfSettings,
     Sgplvm, SgplvmSettings, StepOneOnly,
@@ -25,6 +27,20 @@ use tapeshape_eval::{Method, TrainingData};
 use tapeshape_measure::MeasurementSet;
 use tapeshape_model::PredictSettings;
 use tapeshape_population::{generate_population, Dataset, PopulationSettings};
+
+/// Train and predict times of every method of the evaluation, with the
+/// mean measurement error on held-out bodies as a sanity check.
+#[derive(Parser)]
+struct Args {
+    /// Training bodies (seed 1), generated once and cached under
+    /// `target/methods-bench/`.
+    #[arg(value_name = "N_TRAIN", default_value_t = 360)]
+    n_train: usize,
+    /// Held-out bodies (seed 2, or the environment's `TEST_SEED`), cached
+    /// the same way.
+    #[arg(value_name = "N_TEST", default_value_t = 10)]
+    n_test: usize,
+}
 
 fn cached(n: usize, seed: u64) -> Dataset {
     let dir = PathBuf::from(concat!(
@@ -62,12 +78,7 @@ fn env_usize(name: &str) -> Option<usize> {
 }
 
 fn main() {
-    let args: Vec<usize> = std::env::args()
-        .skip(1)
-        .map(|a| a.parse().expect("N_TRAIN and N_TEST are counts"))
-        .collect();
-    let n_train = args.first().copied().unwrap_or(360);
-    let n_test = args.get(1).copied().unwrap_or(10);
+    let Args { n_train, n_test } = Args::parse();
     let train = cached(n_train, 1);
     let test = cached(n_test, env_usize("TEST_SEED").map_or(2, |s| s as u64));
     let anatomy = tapeshape_body::anatomy::anatomy();

@@ -8,20 +8,52 @@
 //!     [--model host/estimator/models/default.tsm.gz] [--source TEXT]
 //! ```
 //!
-//! `--model FILE` records the sha256 of the model trained on the population
-//! (the CI test checks that the committed table belongs to the embedded
-//! model); `--source TEXT` describes the population (default: the file's
-//! name and its generation settings).
+//! Options: `--help` lists them (the CSV file, the model whose sha256 the
+//! table records, the population's description).
 
 use std::path::Path;
 use std::process::ExitCode;
 
+use clap::Parser;
 use sha2::{Digest, Sha256};
 use tapeshape_eval::poptable::PopulationTable;
 use tapeshape_population::Dataset;
 
+/// Writes a model's training population as a population table: every body
+/// of known sex measured with the `ansur` set, one CSV row per body.
+#[derive(Parser)]
+// A flag given twice takes its last value, as the hand-written loop did.
+#[command(args_override_self = true)]
+struct Args {
+    /// The model's training population (a dataset file).
+    #[arg(value_name = "POP.tsd")]
+    input: String,
+    /// The population table to write.
+    #[arg(long, value_name = "FILE.csv")]
+    out: String,
+    /// The model trained on the population: the table records its sha256
+    /// (the CI test checks that the committed table belongs to the
+    /// embedded model).
+    #[arg(long, value_name = "FILE")]
+    model: Option<String>,
+    /// What the population is (default: the file's name and its
+    /// generation settings).
+    #[arg(long, value_name = "TEXT")]
+    source: Option<String>,
+}
+
 fn main() -> ExitCode {
-    match real_main() {
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::FAILURE;
+        }
+        Err(e) => e.exit(),
+    };
+    match real_main(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
@@ -30,26 +62,13 @@ fn main() -> ExitCode {
     }
 }
 
-fn real_main() -> Result<(), String> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let (mut input, mut out, mut model, mut source) = (None, None, None, None);
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = |what: &str| {
-            it.next()
-                .cloned()
-                .ok_or_else(|| format!("{a} needs {what}"))
-        };
-        match a.as_str() {
-            "--out" => out = Some(value("a file")?),
-            "--model" => model = Some(value("a model file")?),
-            "--source" => source = Some(value("a description")?),
-            s if !s.starts_with("--") && input.is_none() => input = Some(s.to_string()),
-            other => return Err(format!("unknown argument {other} (see the file's docs)")),
-        }
-    }
-    let input = input.ok_or("usage: population_table POP.tsd --out FILE.csv [--model FILE]")?;
-    let out = out.ok_or("--out FILE.csv is needed")?;
+fn real_main(args: Args) -> Result<(), String> {
+    let Args {
+        input,
+        out,
+        model,
+        source,
+    } = args;
     let dataset = Dataset::read(Path::new(&input)).map_err(|e| format!("{input}: {e}"))?;
     let source = source.unwrap_or_else(|| {
         let name = Path::new(&input)

@@ -13,11 +13,14 @@
 //! ```text
 //! cargo run --release -p tapeshape-eval --example size_agreement -- [--per-sex N] [--out FILE]
 //! ```
+//!
+//! Options: `--help` lists them (how many people, where the page goes).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use clap::Parser;
 use nalgebra::{DMatrix, DVector};
 use tapeshape_estimator::{Estimator, PredictOptions};
 use tapeshape_eval::customers::{features, ols, predict_row, run, test_people, CustomersOptions};
@@ -50,18 +53,33 @@ fn best(chart: &Chart, readings: &Readings) -> Vec<Option<String>> {
         .collect()
 }
 
+/// Sizes from a few readings against sizes from all of them, on every
+/// ANSUR II test-split person: prints (or writes) a Markdown page.
+#[derive(Parser)]
+// A flag given twice takes its last value, as the hand-written loop did.
+#[command(args_override_self = true)]
+struct Args {
+    /// The first N of each sex by id (default: all).
+    #[arg(long, value_name = "N")]
+    per_sex: Option<usize>,
+    /// The Markdown page (default: print it).
+    #[arg(long, value_name = "FILE")]
+    out: Option<String>,
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut per_sex = None;
-    let mut out = None;
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--per-sex" => per_sex = Some(it.next().ok_or("--per-sex N")?.parse()?),
-            "--out" => out = Some(it.next().ok_or("--out FILE")?.clone()),
-            other => return Err(format!("unknown argument {other}").into()),
+    // The command as given, for the page.
+    let given: Vec<String> = std::env::args().skip(1).collect();
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let Args { per_sex, out } = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
         }
-    }
+        Err(e) => e.exit(),
+    };
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let quick = MeasurementSet::builtin("quick")?;
     let estimator = Estimator::default_model()?;
@@ -235,7 +253,7 @@ of their sex (all measured). Station: only stature, chest, waist and hip measure
 the estimated body (embedded model, default settings, sex given) with their spread. Regression: least squares with sex \
 on the ANSUR II train split from the same four, its residual SD as spread. The example charts are built from ANSUR II \
 train-split percentiles (docs/size-charts.md), not any brand's.\n",
-        args.join(" "),
+        given.join(" "),
         result.people.len(),
         t0.elapsed().as_secs_f64()
     );

@@ -25,11 +25,15 @@
 //! FILE.png` the quick set, `FILE-ansur44.png` the full ansur set, and with
 //! `--leave-out` `FILE-ansurN.png` the reduced one. `--ids A,B,...`
 //! draws those test-split people in one row instead.
+//!
+//! Options: `surface_check calibrate --help` and `surface_check figure
+//! --help` list them.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
 use rayon::prelude::*;
 use tapeshape_body::render::{vstack, View};
 use tapeshape_estimator::{Estimator, Inputs, PredictOptions};
@@ -41,53 +45,82 @@ use tapeshape_population::Dataset;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
+/// The surface check: its calibration on generated bodies, and the figure
+/// of test-split people.
+#[derive(Parser)]
+// A flag given twice takes its last value, as the hand-written loop did
+// (`--leave-out` and `--ids` add to the ones before); the setting holds
+// for the subcommands too.
+#[command(args_override_self = true)]
 struct Args {
-    command: String,
-    train: Option<PathBuf>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The shares of edges beyond the envelope of `--train` on held-out
+    /// generated bodies, for a grid of margins, and the rule calibrated on
+    /// them; a sanity check on test-split subject 10032.
+    Calibrate(Calibrate),
+    /// 12 test-split people (6 per sex across their weight order), or
+    /// `--ids`, estimated from their `quick` and `ansur` readings, drawn
+    /// with each body's verdict.
+    Figure(Figure),
+}
+
+#[derive(clap::Args)]
+struct Calibrate {
+    /// The model's training population: the envelope.
+    #[arg(long, value_name = "FILE.tsd")]
+    train: PathBuf,
+    /// Held-out generated bodies (another seed): the shares and the rule
+    /// calibrated on them (without it, only the sanity check).
+    #[arg(long, value_name = "FILE.tsd")]
     held: Option<PathBuf>,
+    /// A model file instead of the embedded default.
+    #[arg(long, value_name = "FILE")]
     model: Option<PathBuf>,
-    out: Option<PathBuf>,
+    /// Also the estimator's bodies from the first N held-out bodies' own
+    /// `quick` and `ansur` measurements (with sex).
+    #[arg(long, value_name = "N", default_value_t = 0)]
     synthetic: usize,
+    /// An ANSUR column not entered (repeatable): the sanity check also runs
+    /// the `ansur` set without them.
+    #[arg(long, value_name = "COLUMN")]
     leave_out: Vec<String>,
+}
+
+#[derive(clap::Args)]
+struct Figure {
+    /// The model's training population: the envelope.
+    #[arg(long, value_name = "FILE.tsd")]
+    train: PathBuf,
+    /// Calibrate the rule on those held-out generated bodies instead of
+    /// using the one calibrated for the embedded default
+    /// (`tapeshape_eval::surface::SurfaceRule::CALIBRATED`).
+    #[arg(long, value_name = "FILE.tsd")]
+    held: Option<PathBuf>,
+    /// A model file instead of the embedded default.
+    #[arg(long, value_name = "FILE")]
+    model: Option<PathBuf>,
+    /// The `quick` set's figure; the others beside it, `FILE-ansur44.png`
+    /// and with `--leave-out` `FILE-ansurN.png`.
+    #[arg(long, value_name = "FILE.png")]
+    out: PathBuf,
+    /// An ANSUR column not entered (repeatable): also a figure of the
+    /// `ansur` set without them.
+    #[arg(long, value_name = "COLUMN")]
+    leave_out: Vec<String>,
+    /// Those test-split people, separated by commas (`A,B,...`; repeatable),
+    /// in one row instead of the 12.
+    #[arg(long, value_name = "A,B,...", value_delimiter = ',', value_parser = id)]
     ids: Vec<u32>,
 }
 
-fn parse() -> Result<Args> {
-    let raw: Vec<String> = std::env::args().skip(1).collect();
-    let mut it = raw.iter();
-    let command = it.next().cloned().context("calibrate or figure")?;
-    let mut a = Args {
-        command,
-        train: None,
-        held: None,
-        model: None,
-        out: None,
-        synthetic: 0,
-        leave_out: Vec::new(),
-        ids: Vec::new(),
-    };
-    while let Some(f) = it.next() {
-        let mut value = || {
-            it.next()
-                .cloned()
-                .with_context(|| format!("{f} needs a value"))
-        };
-        match f.as_str() {
-            "--train" => a.train = Some(value()?.into()),
-            "--held" => a.held = Some(value()?.into()),
-            "--model" => a.model = Some(value()?.into()),
-            "--out" => a.out = Some(value()?.into()),
-            "--synthetic" => a.synthetic = value()?.parse()?,
-            "--leave-out" => a.leave_out.push(value()?),
-            "--ids" => {
-                for id in value()?.split(',') {
-                    a.ids.push(id.trim().parse()?);
-                }
-            }
-            other => bail!("unknown argument {other} (see the file's docs)"),
-        }
-    }
-    Ok(a)
+/// One of `--ids`'s values: a test-split id, spaces around it ignored.
+fn id(s: &str) -> Result<u32, std::num::ParseIntError> {
+    s.trim().parse()
 }
 
 fn estimator(model: &Option<PathBuf>) -> Result<&'static Estimator> {
@@ -151,8 +184,8 @@ fn table(name: &str, folds: &[Vec<f64>], env: &Envelope) {
     );
 }
 
-fn calibrate(a: &Args) -> Result<()> {
-    let env = envelope(a.train.as_ref().context("--train")?)?;
+fn calibrate(a: &Calibrate) -> Result<()> {
+    let env = envelope(&a.train)?;
     let est = estimator(&a.model)?;
     env.check_topology(est.topology())?;
     if let Some(held) = &a.held {
@@ -247,8 +280,8 @@ fn pick<'a>(people: &[&'a Subject], sex: Sex) -> Vec<&'a Subject> {
     (0..6).map(|k| v[((v.len() - 1) * k + 2) / 5]).collect()
 }
 
-fn figure(a: &Args) -> Result<()> {
-    let train = a.train.as_ref().context("--train")?;
+fn figure(a: &Figure) -> Result<()> {
+    let train = &a.train;
     let train = Dataset::read(train).with_context(|| format!("reading {}", train.display()))?;
     let held = a.held.as_deref().map(Dataset::read).transpose()?;
     let check = SurfaceCheck::from_datasets(&train, held.as_ref())?;
@@ -334,7 +367,7 @@ fn figure(a: &Args) -> Result<()> {
     // One frame for every panel of every figure: true relative sizes.
     let region = expand(common_region(&all_vertices), 0.02);
     let topo = est.topology().clone();
-    let out = a.out.clone().context("--out")?;
+    let out = a.out.clone();
     for (k, (set, n, b)) in bodies.iter().enumerate() {
         // One figure per input set: a row of men, a row of women, each cell
         // the body from the front and from its right side, its verdict under it.
@@ -409,11 +442,20 @@ fn figure(a: &Args) -> Result<()> {
 }
 
 fn main() -> ExitCode {
-    let r = parse().and_then(|a| match a.command.as_str() {
-        "calibrate" => calibrate(&a),
-        "figure" => figure(&a),
-        other => bail!("unknown command {other}: calibrate or figure"),
-    });
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::FAILURE;
+        }
+        Err(e) => e.exit(),
+    };
+    let r = match &args.command {
+        Command::Calibrate(a) => calibrate(a),
+        Command::Figure(a) => figure(a),
+    };
     match r {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
