@@ -9,21 +9,35 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
+use clap::Parser;
 use tapeshape_body::anatomy::{self, pack::Pack};
 use tapeshape_body::render::{self, Colouring, Marker, Panel, View};
 use tapeshape_mesh::Mesh;
 
+/// Renders one of the MakeHuman pack's reference bodies with the template's
+/// body parts coloured and its landmarks as dots.
+#[derive(Parser)]
+struct Args {
+    /// The reference body, 1 to 8 (see the pack README, section 5).
+    #[arg(value_parser = clap::value_parser!(u8).range(1..=8))]
+    n: u8,
+    /// The PNG written.
+    #[arg(value_name = "OUT.png")]
+    out: PathBuf,
+}
+
 fn main() -> anyhow::Result<()> {
-    let mut args = std::env::args().skip(1);
-    let n: usize = args
-        .next()
-        .context("usage: anatomy_on_reference N OUT.png (N = 1..8)")?
-        .parse()
-        .context("N must be a number 1..8")?;
-    if !(1..=8).contains(&n) {
-        bail!("N must be 1..8, got {n}");
-    }
-    let out = PathBuf::from(args.next().context("missing OUT.png")?);
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
+    };
+    let Args { n, out } = args;
     let pack = Pack::committed()?;
     let path =
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/reference/body{n}.f32"));

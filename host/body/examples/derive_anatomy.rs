@@ -5,13 +5,15 @@
 //! Run from anywhere: `cargo run -p tapeshape-body --example derive_anatomy`
 //! (optionally `-- PACK_DIR`, a full MakeHuman pack folder such as
 //! `../shared/assets/makehuman`; default: the pack as committed with the crate,
-//! `Pack::committed`, which equals it value for value). The test
+//! `Pack::committed`, which equals it value for value; after it, a folder for
+//! close-up pictures of the landmarks, for checking the rules by eye). The test
 //! `tests/anatomy_data.rs` checks that the committed data files equal what this
 //! derivation produces.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use clap::Parser;
 use tapeshape_body::anatomy::{self, derive, pack::Pack};
 use tapeshape_body::render::{self, Colouring, Marker, Panel, View};
 use tapeshape_mesh::Mesh;
@@ -50,10 +52,37 @@ fn landmark_colour(name: &str) -> [u8; 3] {
     }
 }
 
+/// Derives the template's landmarks and body parts from the MakeHuman pack and
+/// writes `host/body/data/landmarks.toml`, `host/body/data/parts.toml`,
+/// `docs/anatomy.md` and `docs/anatomy.png`.
+#[derive(Parser)]
+struct Args {
+    /// A full MakeHuman pack folder, such as `../shared/assets/makehuman`
+    /// (default: the pack as committed with the crate, which equals it value
+    /// for value).
+    pack_dir: Option<PathBuf>,
+    /// Also write close-ups of the landmarks (face, neck, torso, ...) there,
+    /// one PNG each, for checking the rules by eye.
+    closeups_dir: Option<PathBuf>,
+}
+
 fn main() -> anyhow::Result<()> {
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let Args {
+        pack_dir,
+        closeups_dir,
+    } = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
+    };
     let crate_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let pack = match std::env::args().nth(1) {
-        Some(dir) => Pack::load(Path::new(&dir)),
+    let pack = match pack_dir {
+        Some(dir) => Pack::load(&dir),
         None => Pack::committed(),
     }
     .context("loading the MakeHuman pack")?;
@@ -146,7 +175,7 @@ fn main() -> anyhow::Result<()> {
     render::save_png(&img, &crate_dir.join("../../docs/anatomy.png"))?;
     write_atomic(&crate_dir.join("../../docs/anatomy.md"), &docs(&d))?;
 
-    if let Some(dir) = std::env::args().nth(2).map(PathBuf::from) {
+    if let Some(dir) = closeups_dir {
         // Close-ups for checking the rules by eye: region centre, half size, views.
         let lm = |n: &str| {
             d.landmarks

@@ -10,32 +10,59 @@
 
 use std::path::PathBuf;
 
+use clap::Parser;
 use tapeshape_body::{age_from_years, BodyModel, LocalChanges, Phenotype};
 use tapeshape_mesh::io;
 
+/// Generates one body and writes it as OBJ, PLY or GLB (by the extension).
+#[derive(Parser)]
+struct Args {
+    /// The file written: its extension, `.obj`, `.ply` or `.glb`, picks the
+    /// format.
+    #[arg(value_name = "OUT.{obj,ply,glb}")]
+    out: PathBuf,
+    /// A phenotype field (`gender`, `years` or `age`, `muscle`, `weight`,
+    /// `height`, `proportions`, `cupsize`, `firmness`, `african`, `asian`,
+    /// `caucasian`) or a local-change label, and its value; set in the order
+    /// given, the rest stay at `Phenotype::default()`.
+    #[arg(value_name = "name=value", value_parser = setting)]
+    settings: Vec<(String, f64)>,
+}
+
+/// A `name=value` argument: the name and the number.
+fn setting(arg: &str) -> Result<(String, f64), String> {
+    let (name, value) = arg
+        .split_once('=')
+        .ok_or_else(|| format!("{arg:?}: expected name=value"))?;
+    let v: f64 = value
+        .parse()
+        .map_err(|_| format!("{arg:?}: {value:?} is not a number"))?;
+    Ok((name.to_string(), v))
+}
+
 fn main() {
-    if let Err(e) = run() {
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
+    };
+    if let Err(e) = run(args) {
         eprintln!("error: {e}");
         std::process::exit(1);
     }
 }
 
-fn run() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let out = PathBuf::from(
-        args.next()
-            .ok_or("usage: export_body OUT.{obj,ply,glb} [name=value ...]")?,
-    );
+fn run(args: Args) -> Result<(), Box<dyn std::error::Error>> {
+    let Args { out, settings } = args;
     let mut ph = Phenotype::default();
     let mut lc = LocalChanges::new();
-    for arg in args {
-        let (name, value) = arg
-            .split_once('=')
-            .ok_or_else(|| format!("{arg:?}: expected name=value"))?;
-        let v: f64 = value
-            .parse()
-            .map_err(|_| format!("{arg:?}: {value:?} is not a number"))?;
-        match name {
+    for (name, v) in settings {
+        match name.as_str() {
             "gender" => ph.gender = v,
             "age" => ph.age = v,
             "years" => ph.age = age_from_years(v)?,

@@ -8,14 +8,33 @@
 
 use std::path::PathBuf;
 
+use clap::Parser;
+
+/// Builds the embedded blend pack from the MakeHuman pack folder.
+#[derive(Parser)]
+struct Args {
+    /// The MakeHuman pack folder (such as `../shared/assets/makehuman`).
+    #[arg(value_name = "PACK_DIR")]
+    src: PathBuf,
+    /// The pack written (such as `host/body/assets/makehuman/blend.pack.z`).
+    #[arg(value_name = "OUT.pack.z")]
+    dst: PathBuf,
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let [src, dst] = args.as_slice() else {
-        return Err("usage: pack_assets <makehuman pack folder> <output .pack.z>".into());
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
     };
-    let pack = tapeshape_body::pack::read_sources(&PathBuf::from(src))?;
+    let Args { src, dst } = args;
+    let pack = tapeshape_body::pack::read_sources(&src)?;
     let blob = pack.encode();
-    let dst = PathBuf::from(dst);
     tapeshape_common::fs::write_atomic(&dst, &blob)?;
     let entries: usize = pack.targets.iter().map(|t| t.index.len()).sum();
     println!(

@@ -27,7 +27,8 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context};
+use anyhow::Context;
+use clap::Parser;
 use tapeshape_body::render::{self, Colouring, Marker, Panel, View};
 use tapeshape_body::{BodyModel, LocalChanges, Phenotype};
 use tapeshape_measure::{Class, MeasurementSet};
@@ -39,19 +40,39 @@ const H: u32 = 128;
 /// Tiles per row of the sheet.
 const COLUMNS: usize = 4;
 
+/// Contact sheets of measurement sets: every measurement drawn on the
+/// template, a large and a small body, from what the engine measured.
+#[derive(Parser)]
+// `--out` given twice takes its last value, as the hand-written loop did.
+#[command(args_override_self = true)]
+struct Args {
+    /// The folder the sheets go to, `OUT/SET.png` per set (made if missing).
+    #[arg(long, value_name = "FOLDER")]
+    out: PathBuf,
+    /// A measurement set to draw (repeatable; default: `quick` and `ansur`):
+    /// a built-in set or a set file.
+    #[arg(long, value_name = "SET", value_parser = measurement_set)]
+    set: Vec<String>,
+}
+
+/// `--set`'s value, checked: a set `MeasurementSet::load` takes.
+fn measurement_set(name: &str) -> Result<String, String> {
+    MeasurementSet::load(name)
+        .map(|_| name.to_string())
+        .map_err(|e| e.to_string())
+}
+
 fn main() -> anyhow::Result<()> {
-    let mut sets = Vec::new();
-    let mut out = None;
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--set" => sets.push(it.next().context("--set needs a set name")?.clone()),
-            "--out" => out = Some(PathBuf::from(it.next().context("--out needs a folder")?)),
-            other => bail!("unknown argument {other} (see the file's docs)"),
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let Args { out, set: mut sets } = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
         }
-    }
-    let out = out.context("--out FOLDER is required")?;
+        Err(e) => e.exit(),
+    };
     if sets.is_empty() {
         sets = vec!["quick".into(), "ansur".into()];
     }

@@ -13,11 +13,40 @@
 
 use std::io::Write as _;
 
+use clap::Parser;
 use tapeshape_measure::MeasurementSet;
 use tapeshape_population::ansur::{Ansur, Sex, Split};
 
+/// Writes every ANSUR II subject (both splits) as a survey CSV for
+/// `tapeshape batch` on standard output: `id`, `sex` and the real values of
+/// a measurement set's ANSUR columns, in millimetres.
+#[derive(Parser)]
+struct Args {
+    /// The measurement set whose ANSUR columns are written: `quick` or
+    /// `ansur` (or another built-in set or a set file).
+    #[arg(default_value = "quick", value_parser = measurement_set)]
+    set: String,
+}
+
+/// `SET`'s value, checked: a set `MeasurementSet::load` takes.
+fn measurement_set(name: &str) -> Result<String, String> {
+    MeasurementSet::load(name)
+        .map(|_| name.to_string())
+        .map_err(|e| e.to_string())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let set_name = std::env::args().nth(1).unwrap_or_else(|| "quick".into());
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
+    };
+    let set_name = args.set;
     let set = MeasurementSet::load(&set_name)?;
     let columns: Vec<(&str, &str)> = set
         .definitions

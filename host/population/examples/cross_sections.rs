@@ -16,6 +16,7 @@
 //! depth). Only the train split is read. Last, a prototype of a shape
 //! change that would close the gap (see `squaring`).
 
+use clap::Parser;
 use tapeshape_body::{BodyModel, LocalChanges, Phenotype};
 use tapeshape_measure::MeasurementSet;
 use tapeshape_population::ansur::{Ansur, Sex, Split};
@@ -59,8 +60,30 @@ fn row(label: &str, v: &mut [f64]) {
     );
 }
 
+/// The hip and waist cross-sections: a girth over the perimeter of the
+/// ellipse with the breadth and depth at the same level, on real people, on
+/// a generated population's meshes and under each generator parameter that
+/// shapes the hips or the waist.
+#[derive(Parser)]
+struct Args {
+    /// A generated population (dataset file) whose meshes are measured
+    /// beside ANSUR II (default: ANSUR II and the parameters only).
+    #[arg(value_name = "POPULATION.tsd")]
+    population: Option<String>,
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let population = std::env::args().nth(1);
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
+    };
+    let population = args.population;
     let ansur = Ansur::get()?;
     let body = BodyModel::shared()?;
     let set = MeasurementSet::builtin("ansur")?

@@ -6,10 +6,30 @@
 
 use std::collections::BTreeMap;
 
+use clap::Parser;
+
+/// How well a generated population's bodies met their subjects, per fitted
+/// dimension, and where the fit left its drivers.
+#[derive(Parser)]
+struct Args {
+    /// A generated population's dataset file: the fit records of its
+    /// bodies (bodies without one are skipped).
+    #[arg(value_name = "FILE.tsd")]
+    path: String,
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args()
-        .nth(1)
-        .ok_or("usage: fit_report FILE.tsd")?;
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
+    };
+    let path = args.path;
     let d = tapeshape_population::Dataset::read(std::path::Path::new(&path))?;
     let mut per: BTreeMap<String, (f64, f64, usize, usize)> = BTreeMap::new();
     let mut iters = Vec::new();

@@ -7,12 +7,30 @@
 //!
 //! `cargo run --release -p tapeshape-population --example landmark_levels -- FILE.tsd`
 
+use clap::Parser;
 use tapeshape_population::ansur::Sex;
 
+/// How far the posterior waist landmark sits above or below the omphalion
+/// on each body of a dataset, per sex.
+#[derive(Parser)]
+struct Args {
+    /// A dataset file: the landmarks are read on its bodies' meshes.
+    #[arg(value_name = "FILE.tsd")]
+    path: String,
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args()
-        .nth(1)
-        .ok_or("usage: landmark_levels FILE.tsd")?;
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
+    };
+    let path = args.path;
     let d = tapeshape_population::Dataset::read(std::path::Path::new(&path))?;
     let records = tapeshape_body::anatomy::landmark_records()?;
     let landmark = |name: &str| -> Result<usize, String> {

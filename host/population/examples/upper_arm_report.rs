@@ -8,6 +8,7 @@
 //!
 //! `cargo run --release -p tapeshape-population --example upper_arm_report -- FILE.tsd`
 
+use clap::Parser;
 use tapeshape_measure::MeasurementSet;
 use tapeshape_population::ansur::{Ansur, Sex, Split};
 use tapeshape_population::statistics::mean_sd_corr;
@@ -43,10 +44,26 @@ fn summary(v: &mut [f64]) -> String {
     )
 }
 
+/// The upper arm of a generated population beside ANSUR II, per sex.
+#[derive(Parser)]
+struct Args {
+    /// A generated population's dataset file: its bodies are measured.
+    #[arg(value_name = "FILE.tsd")]
+    path: String,
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args()
-        .nth(1)
-        .ok_or("usage: upper_arm_report FILE.tsd")?;
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
+    };
+    let path = args.path;
     let d = tapeshape_population::Dataset::read(std::path::Path::new(&path))?;
     let anatomy = tapeshape_body::anatomy::anatomy();
     let quick = MeasurementSet::builtin("quick")?.compile(&d.topology, &anatomy)?;

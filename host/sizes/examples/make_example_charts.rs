@@ -42,6 +42,7 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
+use clap::Parser;
 use tapeshape_measure::MeasurementSet;
 use tapeshape_population::ansur::{Ansur, Sex, Split};
 
@@ -405,8 +406,29 @@ pub fn chart_path(sex: Sex) -> PathBuf {
         .join(name)
 }
 
+/// Writes the two example size charts, `examples/size-charts/menswear.toml`
+/// and `womenswear.toml`, laid on ANSUR II train-split percentiles.
+#[derive(Parser)]
+// `--check` given twice is still `--check`, as the hand-written lookup took it.
+#[command(args_override_self = true)]
+struct Args {
+    /// Compare only: write nothing, and fail when a committed chart differs
+    /// from what this program would write.
+    #[arg(long)]
+    check: bool,
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let check = std::env::args().any(|a| a == "--check");
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let Args { check } = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
+    };
     let mut stale = Vec::new();
     for sex in [Sex::Male, Sex::Female] {
         let text = chart_text(sex)?;
