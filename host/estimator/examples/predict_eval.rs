@@ -18,17 +18,20 @@
 //!     [--heldout FILE] --n 10 --set quick [--bodies 0,3] [--all 1]
 //! ```
 //!
-//! Every experiment takes the prediction settings as flags (see
-//! `settings_from_args`): `--paper` for the paper's exact pipeline, and
-//! `--gn`, `--gn-min-decrease MM`, `--w1`, `--w2`, `--w2-scale`, `--prior`, `--k1`, `--box`,
-//! `--cont`, `--cont-iters1 N|solver`, `--budget`, `--iters1`, `--iters2`, `--solver2 lbfgs|gn|smooth|smooth:MODES[:POLISH]` (step 2's
-//! solver), `--first none|smooth` (a step-2 solver tried first, kept when it
-//! meets every reading), `--l`, `--lambda`, `--s`.
+//! Every experiment takes the prediction settings as flags (the station's
+//! by default; see `settings_from_args`): `--paper` for the paper's exact
+//! pipeline, then step 1's solver, prior, weighting, components, clamp and
+//! iterations, step 2's weighting, solver and iterations, the
+//! continuation, and `--first none|smooth` (a step-2 solver tried first,
+//! kept when it meets every reading). Options: `predict_eval sreal
+//! --help`, `predict_eval iso --help` and `predict_eval diag --help` list
+//! them.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use clap::{Parser, Subcommand, ValueEnum};
 use rand::SeedableRng;
 use tapeshape_estimator::{
     train, Estimator, Inputs, PredictError, PredictOptions, PredictSettings, TrainSettings,
@@ -42,19 +45,315 @@ use tapeshape_population::ansur::{Ansur, Split};
 use tapeshape_population::seeded;
 use tapeshape_population::Dataset;
 
-fn arg(args: &[String], name: &str) -> Option<String> {
-    args.iter()
-        .position(|a| a == name)
-        .and_then(|i| args.get(i + 1).cloned())
+/// Prediction experiments of issue 4, printing markdown tables.
+#[derive(Parser)]
+// A flag given twice takes its last value (the hand-written lookup took
+// the first); the setting holds for the subcommands too.
+#[command(args_override_self = true)]
+struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The paper's S_real: held-out generated bodies predicted from their
+    /// paper34 values (feature analysis alone and the full method), by a
+    /// paper34-only model trained on `--train` and by `--model`.
+    Sreal(Sreal),
+    /// ISO 20685-1 pass shares for the `quick` and `ansur` sets: held-out
+    /// generated bodies (all measurements and random subsets of `quick`)
+    /// and ANSUR II test-split subjects.
+    Iso(Iso),
+    /// Why a reading misses: for every prediction with a reading outside
+    /// its ISO tolerance, the start, step-1 and step-2 values and what each
+    /// L-BFGS run did.
+    Diag(Diag),
+}
+
+#[derive(clap::Args)]
+struct Sreal {
+    /// Held-out generated bodies: their paper34 values are the inputs.
+    #[arg(long, value_name = "FILE")]
+    heldout: PathBuf,
+    /// The first N held-out bodies (all where there are fewer).
+    #[arg(long, value_name = "N", default_value_t = 50)]
+    n: usize,
+    /// Train a paper34-only model (all components) on these bodies and
+    /// evaluate it (before `--model`).
+    #[arg(long, value_name = "FILE")]
+    train: Option<String>,
+    /// Evaluate this model file.
+    #[arg(long, value_name = "FILE")]
+    model: Option<String>,
+    /// As if the operator kept every reading after a flag (issue 12, item
+    /// 6): a held-out body outside the model's population is estimated
+    /// with a warning instead of refused.
+    #[arg(long)]
+    keep_all: bool,
+    #[command(flatten)]
+    settings: Settings,
+}
+
+#[derive(clap::Args)]
+struct Iso {
+    /// A model file instead of the embedded default.
+    #[arg(long, value_name = "FILE")]
+    model: Option<PathBuf>,
+    /// Held-out generated bodies: their own values as inputs (without it,
+    /// only ANSUR II subjects).
+    #[arg(long, value_name = "FILE")]
+    heldout: Option<PathBuf>,
+    /// The first N held-out bodies.
+    #[arg(long, value_name = "N", default_value_t = 50)]
+    n: usize,
+    /// The first N ANSUR II test-split subjects, their real values as
+    /// input (0: none).
+    #[arg(long, value_name = "N", default_value_t = 100)]
+    ansur: usize,
+    /// Random subsets of the `quick` set per held-out body.
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    subsets: usize,
+    #[command(flatten)]
+    settings: Settings,
+}
+
+#[derive(clap::Args)]
+struct Diag {
+    /// A model file instead of the embedded default.
+    #[arg(long, value_name = "FILE")]
+    model: Option<PathBuf>,
+    /// Held-out generated bodies: their values as inputs (without it,
+    /// ANSUR II test-split subjects' real values).
+    #[arg(long, value_name = "FILE")]
+    heldout: Option<PathBuf>,
+    /// The first N bodies or subjects.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    n: usize,
+    /// The input set, every measurement of it entered (those constant on
+    /// the training set left out).
+    #[arg(long, default_value = "quick")]
+    set: String,
+    /// Only these of the first N, numbered from 0, separated by commas
+    /// (`0,3`).
+    #[arg(
+        long,
+        value_name = "I,J,...",
+        value_delimiter = ',',
+        action = clap::ArgAction::Set
+    )]
+    bodies: Option<Vec<usize>>,
+    /// Print the report of every body, not only of those with a failing
+    /// reading (takes a value, any: `--all 1`).
+    #[arg(long, value_name = "ANY")]
+    all: Option<String>,
+    #[command(flatten)]
+    settings: Settings,
+}
+
+/// The prediction settings (defaults: the station's), applied in this
+/// order.
+#[derive(clap::Args)]
+struct Settings {
+    /// Start from the paper's exact pipeline instead of the station's
+    /// settings.
+    #[arg(long)]
+    paper: bool,
+    /// Clamp every normalised weight to [-L, L] (`PredictSettings::l`).
+    #[arg(long, value_name = "L", allow_negative_numbers = true)]
+    l: Option<f64>,
+    /// Step 2's smoothness weight, in [0, 1].
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    lambda: Option<f64>,
+    /// Rounds of support recomputation per step (0: the start only; `sreal`
+    /// runs 0 and 3 whatever it says, and prints it).
+    #[arg(long, value_name = "N")]
+    s: Option<usize>,
+    /// Step 1 as the Gauss-Newton MAP (`on`, see `tapeshape_model::map`) or
+    /// L-BFGS on `E_m` (`off`), keeping the reading noise / prior the
+    /// solver had; read first, the other step-1 flags apply to the solver
+    /// it picks.
+    #[arg(long, value_enum)]
+    gn: Option<OnOff>,
+    /// Step 1's reading noise TAU mm: the Gauss-Newton MAP's, or with
+    /// L-BFGS the training Gaussian's prior (a MAP with that noise).
+    #[arg(long, value_name = "TAU_MM", allow_negative_numbers = true)]
+    prior: Option<f64>,
+    /// Step 1's Gauss-Newton `min_decrease_mm` (needs step 1's
+    /// Gauss-Newton).
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    gn_min_decrease: Option<f64>,
+    /// Step 1's energy weighting.
+    #[arg(long, value_enum)]
+    w1: Option<Weighting>,
+    /// Step 2's energy weighting.
+    #[arg(long, value_enum)]
+    w2: Option<Weighting>,
+    /// Step 2's per-measurement reading weight (default 1e4; needs
+    /// per-measurement step-2 weighting).
+    #[arg(long, value_name = "W", allow_negative_numbers = true)]
+    w2_scale: Option<f64>,
+    /// Step 1 moves the first K components only.
+    #[arg(long, value_name = "K")]
+    k1: Option<usize>,
+    /// Step 1 holds the weights inside [-l, l] before every round after the
+    /// first (`on`) or clamps once after the step (`off`, the paper).
+    #[arg(long = "box", value_name = "BOX", value_enum)]
+    clamp: Option<OnOff>,
+    /// The continuation's rounds beyond `s` per step (`off`: none; a number
+    /// resets its other settings to their defaults).
+    #[arg(long, value_name = "N|off", value_parser = cont)]
+    cont: Option<Cont>,
+    /// L-BFGS iterations of a step-1 continuation round (`solver`:
+    /// `--iters1`'s; needs the continuation).
+    #[arg(long, value_name = "N|solver", value_parser = cont_iters1)]
+    cont_iters1: Option<ContIters1>,
+    /// The continuation's objective-evaluation budget per step (needs the
+    /// continuation).
+    #[arg(long, value_name = "EVALS")]
+    budget: Option<u64>,
+    /// Step 1's iteration cap.
+    #[arg(long, value_name = "N")]
+    iters1: Option<u64>,
+    /// Step 2's solver: `lbfgs` (the paper's), `gn` (sparse Gauss-Newton),
+    /// `smooth` (the smooth basis, fitting each reading), `smooth-segments`
+    /// (the smooth basis, fitting the paper's per-segment `E_m`) or
+    /// `smooth:MODES[:POLISH]` (the smooth basis with MODES modes, fitting
+    /// each reading, and POLISH L-BFGS iterations after each reduced solve,
+    /// default 0).
+    #[arg(long, value_name = "SOLVER", value_parser = solver2)]
+    solver2: Option<Step2Solver>,
+    /// Step 2's iteration cap (of the solver `--solver2` picks).
+    #[arg(long, value_name = "N")]
+    iters2: Option<u64>,
+    /// A step-2 solver tried first, kept when it meets every reading.
+    #[arg(long, value_enum)]
+    first: Option<First>,
+}
+
+/// `--gn`'s and `--box`'s values.
+#[derive(Clone, Copy, ValueEnum)]
+enum OnOff {
+    On,
+    Off,
+}
+
+/// `--w1`'s and `--w2`'s values.
+#[derive(Clone, Copy, ValueEnum)]
+enum Weighting {
+    /// The paper's `E_m`: every segment term with weight 1.
+    Paper,
+    /// Each measurement's terms scaled so that its energy is about its
+    /// error squared (mm^2), whatever its length and number of segments.
+    PerMeasurement,
+}
+
+/// `--first`'s values.
+#[derive(Clone, Copy, ValueEnum)]
+enum First {
+    /// Step 2's solver alone.
+    None,
+    /// The template's smooth basis first.
+    Smooth,
+}
+
+/// `--cont`'s value.
+#[derive(Clone, Copy)]
+enum Cont {
+    Off,
+    Rounds(usize),
+}
+
+fn cont(v: &str) -> Result<Cont, String> {
+    match v {
+        "off" => Ok(Cont::Off),
+        n => n
+            .parse()
+            .map(Cont::Rounds)
+            .map_err(|e| format!("a number or `off` ({e})")),
+    }
+}
+
+/// `--cont-iters1`'s value.
+#[derive(Clone, Copy)]
+enum ContIters1 {
+    Solver,
+    Iters(u64),
+}
+
+fn cont_iters1(v: &str) -> Result<ContIters1, String> {
+    match v {
+        "solver" => Ok(ContIters1::Solver),
+        n => n
+            .parse()
+            .map(ContIters1::Iters)
+            .map_err(|e| format!("a number or `solver` ({e})")),
+    }
+}
+
+/// `--solver2`'s value.
+fn solver2(v: &str) -> Result<Step2Solver, String> {
+    Ok(match v {
+        "lbfgs" => Step2Solver::paper(),
+        "gn" => Step2Solver::GaussNewton {
+            stop: Default::default(),
+        },
+        "smooth" => Step2Solver::smooth_basis(),
+        "smooth-segments" => match Step2Solver::smooth_basis() {
+            Step2Solver::SmoothBasis {
+                modes,
+                polish,
+                stop,
+                min_decrease_mm,
+                ..
+            } => Step2Solver::SmoothBasis {
+                modes,
+                fit: tapeshape_model::SmoothFit::Segments,
+                polish,
+                stop,
+                min_decrease_mm,
+            },
+            other => other,
+        },
+        other => {
+            // smooth:MODES or smooth:MODES:POLISH
+            let parts: Option<Vec<u64>> = other
+                .strip_prefix("smooth:")
+                .map(|r| r.split(':').map(|p| p.parse().ok()).collect())
+                .and_then(|v: Option<Vec<u64>>| v);
+            match parts.as_deref() {
+                Some([modes]) | Some([modes, _]) => Step2Solver::SmoothBasis {
+                    modes: *modes as usize,
+                    fit: tapeshape_model::SmoothFit::Readings,
+                    polish: parts.as_ref().and_then(|p| p.get(1).copied()).unwrap_or(0),
+                    stop: Default::default(),
+                    min_decrease_mm: tapeshape_model::DEFAULT_SMOOTH_MIN_DECREASE_MM,
+                },
+                _ => {
+                    return Err(
+                        "lbfgs, gn, smooth, smooth-segments or smooth:MODES[:POLISH]".into(),
+                    )
+                }
+            }
+        }
+    })
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    match args.first().map(String::as_str) {
-        Some("sreal") => sreal(&args),
-        Some("iso") => iso(&args),
-        Some("diag") => diag(&args),
-        _ => Err("usage: predict_eval sreal|iso|diag [options] (see the file's docs)".into()),
+    // A bad command line exits 1 as every other error here does (clap's
+    // own is 2); `--help` prints and exits 0.
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            std::process::exit(1);
+        }
+        Err(e) => e.exit(),
+    };
+    match &args.command {
+        Command::Sreal(a) => sreal(a),
+        Command::Iso(a) => iso(a),
+        Command::Diag(a) => diag(a),
     }
 }
 
@@ -129,15 +428,12 @@ fn mean(v: &[f64]) -> f64 {
     }
 }
 
-fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
-    let heldout = Dataset::read(&PathBuf::from(
-        arg(args, "--heldout").ok_or("--heldout FILE")?,
-    ))?;
-    let n: usize = arg(args, "--n").map_or(Ok(50), |s| s.parse())?;
-    let n = n.min(heldout.len());
+fn sreal(args: &Sreal) -> Result<(), Box<dyn std::error::Error>> {
+    let heldout = Dataset::read(&args.heldout)?;
+    let n = args.n.min(heldout.len());
     let mut estimators: Vec<(String, Estimator)> = Vec::new();
-    if let Some(t) = arg(args, "--train") {
-        let data = Dataset::read(&PathBuf::from(&t))?;
+    if let Some(t) = &args.train {
+        let data = Dataset::read(&PathBuf::from(t))?;
         let t0 = Instant::now();
         let file = train(&data, &["paper34"], &TrainSettings::default())?;
         println!(
@@ -148,11 +444,11 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         );
         estimators.push((
             format!("paper34 only, {} bodies, all components", data.len()),
-            Estimator::new(file, &t)?,
+            Estimator::new(file, t)?,
         ));
     }
-    if let Some(m) = arg(args, "--model") {
-        let e = Estimator::load(&PathBuf::from(&m))?;
+    if let Some(m) = &args.model {
+        let e = Estimator::load(&PathBuf::from(m))?;
         estimators.push((
             format!(
                 "{} ({} components, {})",
@@ -166,8 +462,8 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     // As if the operator kept every reading after a flag (issue 12, item 6):
     // a held-out body outside the model's population is then estimated
     // with a warning instead of refused.
-    let keep_all = args.iter().any(|a| a == "--keep-all");
-    let base = settings_from_args(args)?;
+    let keep_all = args.keep_all;
+    let base = settings_from_args(&args.settings)?;
     println!(
         "\nS_real: {n} held-out generated bodies, inputs = their paper34 values, settings l = {}, lambda = {}, s = {}, step 1 {:?} weighted {:?}, step-1 components {:?}\n",
         base.l, base.step2.lambda, base.s, base.step1.solver, base.step1.weighting, base.step1.components
@@ -227,7 +523,7 @@ fn sreal(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         ] {
             let settings = PredictOptions::custom(PredictSettings {
                 s,
-                ..settings_from_args(args)?
+                ..settings_from_args(&args.settings)?
             });
             let (mut eu, mut ci, mut lo, mut vd, mut tt) = (vec![], vec![], vec![], vec![], vec![]);
             let mut vd1 = vec![];
@@ -430,18 +726,18 @@ fn print_shares(
     }
 }
 
-fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
-    let estimator = match arg(args, "--model") {
-        Some(m) => Estimator::load(&PathBuf::from(m))?,
+fn iso(args: &Iso) -> Result<(), Box<dyn std::error::Error>> {
+    let estimator = match &args.model {
+        Some(m) => Estimator::load(m)?,
         None => Estimator::new(
             Estimator::default_model()?.file().clone(),
             "embedded default model",
         )?,
     };
-    let n: usize = arg(args, "--n").map_or(Ok(50), |s| s.parse())?;
-    let n_ansur: usize = arg(args, "--ansur").map_or(Ok(100), |s| s.parse())?;
-    let n_subsets: usize = arg(args, "--subsets").map_or(Ok(3), |s| s.parse())?;
-    let settings = settings_from_args(args)?;
+    let n = args.n;
+    let n_ansur = args.ansur;
+    let n_subsets = args.subsets;
+    let settings = settings_from_args(&args.settings)?;
     println!(
         "settings: l = {}, lambda = {}, s = {}, step 1 {:?} weighted {:?}, step-2 weighting {:?}",
         settings.l,
@@ -452,8 +748,10 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         settings.step2.weighting
     );
     let settings = PredictOptions::custom(settings);
-    let heldout = arg(args, "--heldout")
-        .map(|h| Dataset::read(&PathBuf::from(h)))
+    let heldout = args
+        .heldout
+        .as_ref()
+        .map(|h| Dataset::read(h))
         .transpose()?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
     for set in ["quick", "ansur"] {
@@ -538,29 +836,27 @@ fn iso(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
 /// held-out bodies, predicts from the full `--set` and, for every body with
 /// a failing measurement, prints the report (target, start, step 1, step 2)
 /// and what each L-BFGS run did (iterations, energy, why it stopped).
-fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
-    let estimator = match arg(args, "--model") {
-        Some(m) => Estimator::load(&PathBuf::from(m))?,
+fn diag(args: &Diag) -> Result<(), Box<dyn std::error::Error>> {
+    let estimator = match &args.model {
+        Some(m) => Estimator::load(m)?,
         None => Estimator::new(
             Estimator::default_model()?.file().clone(),
             "embedded default model",
         )?,
     };
-    let n: usize = arg(args, "--n").map_or(Ok(10), |s| s.parse())?;
-    let set = arg(args, "--set").unwrap_or_else(|| "quick".into());
-    let settings = PredictOptions::custom(settings_from_args(args)?);
-    let names = usable(&estimator, estimator.set_members(&set)?);
+    let n = args.n;
+    let set = &args.set;
+    let settings = PredictOptions::custom(settings_from_args(&args.settings)?);
+    let names = usable(&estimator, estimator.set_members(set)?);
     let idx: Vec<usize> = names
         .iter()
         .map(|n| estimator.set().index_of(n).expect("member"))
         .collect();
-    let only: Option<Vec<usize>> = arg(args, "--bodies")
-        .map(|v| v.split(',').map(|x| x.parse()).collect())
-        .transpose()?;
+    let only: Option<&Vec<usize>> = args.bodies.as_ref();
     // Inputs: held-out bodies' values (--heldout FILE) or ANSUR II test-split
     // subjects' real values (--ansur-subjects).
-    let cases: Vec<Vec<Option<f64>>> = if let Some(h) = arg(args, "--heldout") {
-        let heldout = Dataset::read(&PathBuf::from(h))?;
+    let cases: Vec<Vec<Option<f64>>> = if let Some(h) = &args.heldout {
+        let heldout = Dataset::read(h)?;
         heldout
             .bodies
             .iter()
@@ -594,7 +890,7 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             .collect()
     };
     for (b, case) in cases.iter().enumerate() {
-        if only.as_ref().is_some_and(|o| !o.contains(&b)) {
+        if only.is_some_and(|o| !o.contains(&b)) {
             continue;
         }
         let mut inputs = Inputs::new();
@@ -623,7 +919,7 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             failing.len(),
             failing.join(", ")
         );
-        if !failing.is_empty() || arg(args, "--all").is_some() {
+        if !failing.is_empty() || args.all.is_some() {
             for m in &r.measurements {
                 if let (Some(t), Some(s0), Some(s1), Some(s2)) =
                     (m.target_mm, m.start_mm, m.step1_mm, m.step2_mm)
@@ -669,51 +965,43 @@ fn diag(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-/// Prediction settings from the flags (defaults: the station's):
-/// `--paper` (start from the paper's exact pipeline), `--l`, `--lambda`,
-/// `--s`, `--gn on|off` (step 1 as the Gauss-Newton MAP, see
-/// `tapeshape_model::map`, or L-BFGS on `E_m`; read first, the other
-/// step-1 flags apply to the solver it picks), `--prior TAU_MM` (the
-/// MAP's reading noise, or the L-BFGS prior), `--w1`/`--w2` (`paper` or
-/// `per-measurement` energy weighting), `--w2-scale W` (step 2's
-/// per-measurement reading weight, default 1e4), `--k1 K` (step 1 moves
-/// the first K components only), `--box on|off`, `--cont N|off`
-/// (continuation rounds), `--budget EVALS` (the continuation's evaluation
-/// budget per step), `--cont-iters1 N|solver` (L-BFGS iterations of a
-/// step-1 continuation round; `solver`: `--iters1`'s), `--iters1`/`--iters2`
-/// (iteration caps).
-fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::error::Error>> {
-    let mut s = if args.iter().any(|a| a == "--paper") {
+/// Prediction settings from the flags (defaults: the station's), in the
+/// order `Settings` lists them: `--paper` first, `--gn` before the other
+/// step-1 flags (they apply to the solver it picks), `--w2-scale` with or
+/// after `--w2`, `--cont` before `--cont-iters1` and `--budget`,
+/// `--solver2` before `--iters2`. A flag that needs a setting the others
+/// left out is an error.
+fn settings_from_args(args: &Settings) -> Result<PredictSettings, Box<dyn std::error::Error>> {
+    let mut s = if args.paper {
         PredictSettings::paper()
     } else {
         PredictSettings::default()
     };
-    if let Some(v) = arg(args, "--l") {
-        s.l = v.parse()?;
+    if let Some(v) = args.l {
+        s.l = v;
     }
-    if let Some(v) = arg(args, "--lambda") {
-        s.step2.lambda = v.parse()?;
+    if let Some(v) = args.lambda {
+        s.step2.lambda = v;
     }
-    if let Some(v) = arg(args, "--s") {
-        s.s = v.parse()?;
+    if let Some(v) = args.s {
+        s.s = v;
     }
-    if let Some(v) = arg(args, "--gn") {
+    if let Some(v) = args.gn {
         // Keeps the reading noise / prior the current solver had.
         let tau = match s.step1.solver {
             Step1Solver::Lbfgs { prior_mm } => prior_mm,
             Step1Solver::GaussNewtonMap { tau_mm, .. } => tau_mm,
         };
-        s.step1.solver = match v.as_str() {
-            "on" => Step1Solver::GaussNewtonMap {
+        s.step1.solver = match v {
+            OnOff::On => Step1Solver::GaussNewtonMap {
                 tau_mm: tau,
                 min_decrease_mm: tapeshape_model::predict::DEFAULT_STEP1_MIN_DECREASE_MM,
             },
-            "off" => Step1Solver::Lbfgs { prior_mm: tau },
-            _ => return Err(format!("--gn {v}: on or off").into()),
+            OnOff::Off => Step1Solver::Lbfgs { prior_mm: tau },
         };
     }
-    if let Some(v) = arg(args, "--prior") {
-        let tau = Some(v.parse()?);
+    if let Some(v) = args.prior {
+        let tau = Some(v);
         s.step1.solver = match s.step1.solver {
             Step1Solver::Lbfgs { .. } => Step1Solver::Lbfgs { prior_mm: tau },
             Step1Solver::GaussNewtonMap {
@@ -724,31 +1012,30 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
             },
         };
     }
-    if let Some(v) = arg(args, "--gn-min-decrease") {
+    if let Some(v) = args.gn_min_decrease {
         match &mut s.step1.solver {
             Step1Solver::GaussNewtonMap {
                 min_decrease_mm, ..
-            } => *min_decrease_mm = v.parse()?,
+            } => *min_decrease_mm = v,
             Step1Solver::Lbfgs { .. } => {
                 return Err("--gn-min-decrease needs step 1's Gauss-Newton (--gn on)".into())
             }
         }
     }
-    let weighting = |v: &str| match v {
-        "paper" => Ok(EnergyWeighting::Paper),
-        "per-measurement" => Ok(EnergyWeighting::PerMeasurement),
-        _ => Err(format!("weighting {v}: paper or per-measurement")),
+    let weighting = |v: Weighting| match v {
+        Weighting::Paper => EnergyWeighting::Paper,
+        Weighting::PerMeasurement => EnergyWeighting::PerMeasurement,
     };
-    if let Some(v) = arg(args, "--w1") {
-        s.step1.weighting = weighting(&v)?;
+    if let Some(v) = args.w1 {
+        s.step1.weighting = weighting(v);
     }
-    let scale = arg(args, "--w2-scale").map(|v| v.parse()).transpose()?;
+    let scale = args.w2_scale;
     let current_scale = match s.step2.weighting {
         Step2Weighting::PerMeasurement { reading_weight } => reading_weight,
         Step2Weighting::Paper => 1e4,
     };
-    if let Some(v) = arg(args, "--w2") {
-        s.step2.weighting = match weighting(&v)? {
+    if let Some(v) = args.w2 {
+        s.step2.weighting = match weighting(v) {
             EnergyWeighting::Paper => Step2Weighting::Paper,
             EnergyWeighting::PerMeasurement => Step2Weighting::PerMeasurement {
                 reading_weight: scale.unwrap_or(current_scale),
@@ -766,100 +1053,54 @@ fn settings_from_args(args: &[String]) -> Result<PredictSettings, Box<dyn std::e
             }
         }
     }
-    if let Some(v) = arg(args, "--k1") {
-        s.step1.components = Some(v.parse()?);
+    if let Some(v) = args.k1 {
+        s.step1.components = Some(v);
     }
-    if let Some(v) = arg(args, "--box") {
-        s.step1.clamp = if v == "on" {
-            Step1Clamp::InsideBox
-        } else {
-            Step1Clamp::AfterStep
+    if let Some(v) = args.clamp {
+        s.step1.clamp = match v {
+            OnOff::On => Step1Clamp::InsideBox,
+            OnOff::Off => Step1Clamp::AfterStep,
         };
     }
-    if let Some(v) = arg(args, "--cont") {
-        s.continuation = match v.as_str() {
-            "off" => None,
-            n => Some(Continuation {
-                max_extra_rounds: n.parse()?,
+    if let Some(v) = args.cont {
+        s.continuation = match v {
+            Cont::Off => None,
+            Cont::Rounds(n) => Some(Continuation {
+                max_extra_rounds: n,
                 ..Default::default()
             }),
         };
     }
-    if let Some(v) = arg(args, "--cont-iters1") {
+    if let Some(v) = args.cont_iters1 {
         match &mut s.continuation {
             Some(c) => {
-                c.step1_max_iters = match v.as_str() {
-                    "solver" => None,
-                    n => Some(n.parse()?),
+                c.step1_max_iters = match v {
+                    ContIters1::Solver => None,
+                    ContIters1::Iters(n) => Some(n),
                 }
             }
             None => return Err("--cont-iters1 needs the continuation (not with --cont off)".into()),
         }
     }
-    if let Some(v) = arg(args, "--budget") {
+    if let Some(v) = args.budget {
         match &mut s.continuation {
-            Some(c) => c.max_evaluations = v.parse()?,
+            Some(c) => c.max_evaluations = v,
             None => return Err("--budget needs the continuation (not with --cont off)".into()),
         }
     }
-    if let Some(v) = arg(args, "--iters1") {
-        s.step1.stop.max_iters = v.parse()?;
+    if let Some(v) = args.iters1 {
+        s.step1.stop.max_iters = v;
     }
-    if let Some(v) = arg(args, "--solver2") {
-        s.step2.solver = match v.as_str() {
-            "lbfgs" => Step2Solver::paper(),
-            "gn" => Step2Solver::GaussNewton {
-                stop: Default::default(),
-            },
-            "smooth" => Step2Solver::smooth_basis(),
-            "smooth-segments" => match Step2Solver::smooth_basis() {
-                Step2Solver::SmoothBasis {
-                    modes,
-                    polish,
-                    stop,
-                    min_decrease_mm,
-                    ..
-                } => Step2Solver::SmoothBasis {
-                    modes,
-                    fit: tapeshape_model::SmoothFit::Segments,
-                    polish,
-                    stop,
-                    min_decrease_mm,
-                },
-                other => other,
-            },
-            other => {
-                // smooth:MODES or smooth:MODES:POLISH
-                let parts: Option<Vec<u64>> = other
-                    .strip_prefix("smooth:")
-                    .map(|r| r.split(':').map(|p| p.parse().ok()).collect())
-                    .and_then(|v: Option<Vec<u64>>| v);
-                match parts.as_deref() {
-                    Some([modes]) | Some([modes, _]) => Step2Solver::SmoothBasis {
-                        modes: *modes as usize,
-                        fit: tapeshape_model::SmoothFit::Readings,
-                        polish: parts.as_ref().and_then(|p| p.get(1).copied()).unwrap_or(0),
-                        stop: Default::default(),
-                        min_decrease_mm: tapeshape_model::DEFAULT_SMOOTH_MIN_DECREASE_MM,
-                    },
-                    _ => {
-                        return Err(format!(
-                            "--solver2 lbfgs|gn|smooth|smooth:MODES[:POLISH], got {other}"
-                        )
-                        .into())
-                    }
-                }
-            }
-        };
+    if let Some(v) = args.solver2 {
+        s.step2.solver = v;
     }
-    if let Some(v) = arg(args, "--iters2") {
-        *s.step2.solver.max_iters_mut() = v.parse()?;
+    if let Some(v) = args.iters2 {
+        *s.step2.solver.max_iters_mut() = v;
     }
-    if let Some(v) = arg(args, "--first") {
-        s.step2.first = match v.as_str() {
-            "none" => None,
-            "smooth" => Some(Step2Solver::smooth_basis()),
-            other => return Err(format!("--first none|smooth, got {other}").into()),
+    if let Some(v) = args.first {
+        s.step2.first = match v {
+            First::None => None,
+            First::Smooth => Some(Step2Solver::smooth_basis()),
         };
     }
     Ok(s)
