@@ -27,16 +27,7 @@ struct Args {
 }
 
 fn main() -> anyhow::Result<()> {
-    // A bad command line exits 1 as every other error here does (clap's
-    // own is 2); `--help` prints and exits 0.
-    let args = match Args::try_parse() {
-        Ok(a) => a,
-        Err(e) if e.use_stderr() => {
-            let _ = e.print();
-            std::process::exit(1);
-        }
-        Err(e) => e.exit(),
-    };
+    let args = tapeshape_common::cli::parse_or_exit::<Args>();
     let Args { n, out } = args;
     let pack = Pack::committed()?;
     let path =

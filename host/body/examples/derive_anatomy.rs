@@ -67,19 +67,10 @@ struct Args {
 }
 
 fn main() -> anyhow::Result<()> {
-    // A bad command line exits 1 as every other error here does (clap's
-    // own is 2); `--help` prints and exits 0.
     let Args {
         pack_dir,
         closeups_dir,
-    } = match Args::try_parse() {
-        Ok(a) => a,
-        Err(e) if e.use_stderr() => {
-            let _ = e.print();
-            std::process::exit(1);
-        }
-        Err(e) => e.exit(),
-    };
+    } = tapeshape_common::cli::parse_or_exit::<Args>();
     let crate_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let pack = match pack_dir {
         Some(dir) => Pack::load(&dir),

@@ -41,16 +41,7 @@ fn setting(arg: &str) -> Result<(String, f64), String> {
 }
 
 fn main() {
-    // A bad command line exits 1 as every other error here does (clap's
-    // own is 2); `--help` prints and exits 0.
-    let args = match Args::try_parse() {
-        Ok(a) => a,
-        Err(e) if e.use_stderr() => {
-            let _ = e.print();
-            std::process::exit(1);
-        }
-        Err(e) => e.exit(),
-    };
+    let args = tapeshape_common::cli::parse_or_exit::<Args>();
     if let Err(e) = run(args) {
         eprintln!("error: {e}");
         std::process::exit(1);

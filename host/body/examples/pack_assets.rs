@@ -22,16 +22,7 @@ struct Args {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    // A bad command line exits 1 as every other error here does (clap's
-    // own is 2); `--help` prints and exits 0.
-    let args = match Args::try_parse() {
-        Ok(a) => a,
-        Err(e) if e.use_stderr() => {
-            let _ = e.print();
-            std::process::exit(1);
-        }
-        Err(e) => e.exit(),
-    };
+    let args = tapeshape_common::cli::parse_or_exit::<Args>();
     let Args { src, dst } = args;
     let pack = tapeshape_body::pack::read_sources(&src)?;
     let blob = pack.encode();

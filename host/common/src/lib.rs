@@ -12,6 +12,10 @@
 //! * [`suggest`]: the known names closest to a mistyped one, on `strsim`.
 //! * [`fs`]: [`fs::write_atomic`], the one way a file the user keeps is
 //!   written, on `tempfile`.
+//! * `cli` (feature `cli`, the example programs' only): one way a bad
+//!   command line ends, on `clap`.
 
+#[cfg(feature = "cli")]
+pub mod cli;
 pub mod fs;
 pub mod suggest;

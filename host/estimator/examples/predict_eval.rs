@@ -340,16 +340,7 @@ fn solver2(v: &str) -> Result<Step2Solver, String> {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    // A bad command line exits 1 as every other error here does (clap's
-    // own is 2); `--help` prints and exits 0.
-    let args = match Args::try_parse() {
-        Ok(a) => a,
-        Err(e) if e.use_stderr() => {
-            let _ = e.print();
-            std::process::exit(1);
-        }
-        Err(e) => e.exit(),
-    };
+    let args = tapeshape_common::cli::parse_or_exit::<Args>();
     match &args.command {
         Command::Sreal(a) => sreal(a),
         Command::Iso(a) => iso(a),

@@ -25,7 +25,7 @@ use tapeshape_eval::surface::SurfaceCheck;
 struct Args {
     /// The input set: `quick` or `ansur` (or another built-in set or a set
     /// file); its measurements with an ANSUR column are entered.
-    #[arg(long, default_value = "quick", value_parser = input_set)]
+    #[arg(long, default_value = "quick", value_parser = tapeshape_eval::customers::known_set)]
     set: String,
     /// Give each person's sex.
     #[arg(long)]
@@ -85,14 +85,6 @@ struct Args {
 enum First {
     None,
     Smooth,
-}
-
-/// `--set`'s value, checked: a set `tapeshape_measure::MeasurementSet::load`
-/// takes.
-fn input_set(name: &str) -> Result<String, String> {
-    tapeshape_measure::MeasurementSet::load(name)
-        .map(|_| name.to_string())
-        .map_err(|e| e.to_string())
 }
 
 fn main() -> ExitCode {

@@ -70,16 +70,7 @@ struct Args {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The command as given, for the page.
     let given: Vec<String> = std::env::args().skip(1).collect();
-    // A bad command line exits 1 as every other error here does (clap's
-    // own is 2); `--help` prints and exits 0.
-    let Args { per_sex, out } = match Args::try_parse() {
-        Ok(a) => a,
-        Err(e) if e.use_stderr() => {
-            let _ = e.print();
-            std::process::exit(1);
-        }
-        Err(e) => e.exit(),
-    };
+    let Args { per_sex, out } = tapeshape_common::cli::parse_or_exit::<Args>();
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let quick = MeasurementSet::builtin("quick")?;
     let estimator = Estimator::default_model()?;

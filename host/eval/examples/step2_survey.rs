@@ -43,7 +43,7 @@ use tapeshape_population::ansur::Ansur;
 struct Args {
     /// The input set: `quick` or `ansur` (or another built-in set or a set
     /// file); its measurements with an ANSUR column are entered.
-    #[arg(long, default_value = "quick", value_parser = input_set)]
+    #[arg(long, default_value = "quick", value_parser = tapeshape_eval::customers::known_set)]
     set: String,
     /// The values are ANSUR's own, as `tapeshape predict --ansur-survey`
     /// takes them: the dimensions the standing mesh cannot take as ANSUR
@@ -57,25 +57,8 @@ struct Args {
     soft_pull: Option<f64>,
 }
 
-/// `--set`'s value, checked: a set `tapeshape_measure::MeasurementSet::load`
-/// takes.
-fn input_set(name: &str) -> Result<String, String> {
-    tapeshape_measure::MeasurementSet::load(name)
-        .map(|_| name.to_string())
-        .map_err(|e| e.to_string())
-}
-
 fn main() -> ExitCode {
-    // A bad command line exits 1 as every other error here does (clap's
-    // own is 2); `--help` prints and exits 0.
-    let args = match Args::try_parse() {
-        Ok(a) => a,
-        Err(e) if e.use_stderr() => {
-            let _ = e.print();
-            return ExitCode::FAILURE;
-        }
-        Err(e) => e.exit(),
-    };
+    let args = tapeshape_common::cli::parse_or_exit::<Args>();
     match real_main(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

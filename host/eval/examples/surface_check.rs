@@ -442,16 +442,7 @@ fn figure(a: &Figure) -> Result<()> {
 }
 
 fn main() -> ExitCode {
-    // A bad command line exits 1 as every other error here does (clap's
-    // own is 2); `--help` prints and exits 0.
-    let args = match Args::try_parse() {
-        Ok(a) => a,
-        Err(e) if e.use_stderr() => {
-            let _ = e.print();
-            return ExitCode::FAILURE;
-        }
-        Err(e) => e.exit(),
-    };
+    let args = tapeshape_common::cli::parse_or_exit::<Args>();
     let r = match &args.command {
         Command::Calibrate(a) => calibrate(a),
         Command::Figure(a) => figure(a),

@@ -296,6 +296,15 @@ pub struct SurfaceSummary {
     pub worst_people: Vec<(u32, Sex, SurfaceVerdict)>,
 }
 
+/// `name` where it names a measurement set [`MeasurementSet::load`] takes
+/// (a built-in set or a set file), else its error in words: the example
+/// programs' `--set` value parser.
+pub fn known_set(name: &str) -> Result<String, String> {
+    MeasurementSet::load(name)
+        .map(|_| name.to_string())
+        .map_err(|e| e.to_string())
+}
+
 /// Ordinary least squares with an intercept: `x` is n x k (one row per
 /// subject), `y` n; returns the k coefficients then the intercept.
 pub fn ols(x: &DMatrix<f64>, y: &DVector<f64>) -> Option<DVector<f64>> {

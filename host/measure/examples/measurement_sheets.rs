@@ -63,16 +63,7 @@ fn measurement_set(name: &str) -> Result<String, String> {
 }
 
 fn main() -> anyhow::Result<()> {
-    // A bad command line exits 1 as every other error here does (clap's
-    // own is 2); `--help` prints and exits 0.
-    let Args { out, set: mut sets } = match Args::try_parse() {
-        Ok(a) => a,
-        Err(e) if e.use_stderr() => {
-            let _ = e.print();
-            std::process::exit(1);
-        }
-        Err(e) => e.exit(),
-    };
+    let Args { out, set: mut sets } = tapeshape_common::cli::parse_or_exit::<Args>();
     if sets.is_empty() {
         sets = vec!["quick".into(), "ansur".into()];
     }

@@ -419,16 +419,7 @@ struct Args {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    // A bad command line exits 1 as every other error here does (clap's
-    // own is 2); `--help` prints and exits 0.
-    let Args { check } = match Args::try_parse() {
-        Ok(a) => a,
-        Err(e) if e.use_stderr() => {
-            let _ = e.print();
-            std::process::exit(1);
-        }
-        Err(e) => e.exit(),
-    };
+    let Args { check } = tapeshape_common::cli::parse_or_exit::<Args>();
     let mut stale = Vec::new();
     for sex in [Sex::Male, Sex::Female] {
         let text = chart_text(sex)?;
