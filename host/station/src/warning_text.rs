@@ -171,6 +171,20 @@ fn model_warning(lang: Lang, w: &ModelWarning) -> String {
             a.set("left", *left);
             t(msg!("warn-folds-smoothed"), &a)
         }
+        ModelWarning::SurfaceOverReadings {
+            folded,
+            left,
+            readings,
+        } => {
+            a.set("folded", *folded);
+            a.set("left", *left);
+            if readings.is_empty() {
+                t(msg!("warn-surface-over-readings-none"), &a)
+            } else {
+                a.set("names", readings.join(", "));
+                t(msg!("warn-surface-over-readings"), &a)
+            }
+        }
         ModelWarning::SoftPullReduced { pull, asked } => {
             a.set("pull", format!("{:.0}", 100.0 * pull));
             a.set("asked", format!("{:.0}", 100.0 * asked));
@@ -410,6 +424,16 @@ mod tests {
                 left: 0,
             }),
             Warning::Model(ModelWarning::FoldsSmoothed { folded: 9, left: 2 }),
+            Warning::Model(ModelWarning::SurfaceOverReadings {
+                folded: 4,
+                left: 0,
+                readings: vec!["waist_depth".into(), "crotch_height".into()],
+            }),
+            Warning::Model(ModelWarning::SurfaceOverReadings {
+                folded: 2,
+                left: 0,
+                readings: Vec::new(),
+            }),
             Warning::Model(ModelWarning::SoftPullReduced {
                 pull: 0.5,
                 asked: 1.0,

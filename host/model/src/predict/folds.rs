@@ -290,6 +290,111 @@ fn translate_folded(
     }
 }
 
+/// Moves the neighbourhood of each group of folded faces of `x` as one
+/// piece (`reference`, `x`: V vertices, the same unit; `x` changed in
+/// place): the folded faces' vertices and one ring of neighbours around
+/// them, each connected group taking the mean displacement from
+/// `reference` of its `held` vertices where it has any (a landmark stays
+/// where it was), else of all its vertices, blended into the displacement around it over `band` more
+/// rings (linearly with the ring's distance). Inside a group every
+/// triangle then has the reference's normal and area; the band spreads
+/// the change over a few rings so that its small triangles do not fold
+/// in turn. Nothing is held: this is the last resort of the fold repair,
+/// for the folds that smoothing left (a template sliver whose neighbours
+/// [`smooth_folds`] moves apart again). Returns how many faces are folded
+/// after.
+pub(crate) fn translate_regions(
+    topology: &Topology,
+    reference: &[Vec3],
+    x: &mut [Vec3],
+    held: &[bool],
+    band: usize,
+) -> usize {
+    let n = topology.n_vertices();
+    let folded = folded_faces(topology, reference, x);
+    if folded.is_empty() {
+        return 0;
+    }
+    // The core: the folded faces' vertices and one ring.
+    let mut core = vec![false; n];
+    let mut seeds: Vec<usize> = Vec::new();
+    for &f in &folded {
+        for v in topology.faces()[f] {
+            if !core[v as usize] {
+                core[v as usize] = true;
+                seeds.push(v as usize);
+            }
+        }
+    }
+    for v in seeds {
+        for &w in topology.ring(v as u32) {
+            core[w as usize] = true;
+        }
+    }
+    // Connected groups of the core and their mean displacements.
+    const NONE: usize = usize::MAX;
+    let mut group_of = vec![NONE; n];
+    let mut means: Vec<Vec3> = Vec::new();
+    for start in 0..n {
+        if !core[start] || group_of[start] != NONE {
+            continue;
+        }
+        let g = means.len();
+        group_of[start] = g;
+        let mut group = vec![start];
+        let mut k = 0;
+        while k < group.len() {
+            for &w in topology.ring(group[k] as u32) {
+                let w = w as usize;
+                if core[w] && group_of[w] == NONE {
+                    group_of[w] = g;
+                    group.push(w);
+                }
+            }
+            k += 1;
+        }
+        let pinned: Vec<usize> = group.iter().copied().filter(|&v| held[v]).collect();
+        let from: &[usize] = if pinned.is_empty() { &group } else { &pinned };
+        let m = from.len() as f64;
+        means.push(from.iter().fold([0.0; 3], |d, &v| {
+            add(d, sub(x[v], reference[v]).map(|e| e / m))
+        }));
+    }
+    // The band: rings around the core by breadth-first distance, each
+    // vertex blended towards the group that reached it first.
+    let mut dist = vec![NONE; n];
+    let mut frontier: Vec<usize> = (0..n).filter(|&v| core[v]).collect();
+    frontier.iter().for_each(|&v| dist[v] = 0);
+    for k in 1..=band {
+        let mut ring = Vec::new();
+        for &v in &frontier {
+            for &w in topology.ring(v as u32) {
+                let w = w as usize;
+                if dist[w] == NONE {
+                    dist[w] = k;
+                    group_of[w] = group_of[v];
+                    ring.push(w);
+                }
+            }
+        }
+        frontier = ring;
+    }
+    for v in 0..n {
+        if dist[v] == NONE {
+            continue;
+        }
+        let t = dist[v] as f64 / (band + 1) as f64;
+        let own = sub(x[v], reference[v]);
+        let d = add(scale3(means[group_of[v]], 1.0 - t), scale3(own, t));
+        x[v] = add(reference[v], d);
+    }
+    folded_faces(topology, reference, x).len()
+}
+
+fn scale3(a: Vec3, s: f64) -> Vec3 {
+    a.map(|e| e * s)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -409,6 +514,47 @@ mod tests {
         let copy = flat.clone();
         assert_eq!(smooth_folds(&topo, &reference, &mut flat, &pinned), (0, 0));
         assert_eq!(flat, copy);
+    }
+
+    #[test]
+    fn a_folded_neighbourhood_moved_as_one_piece_unfolds_and_the_rest_stays() {
+        let (topo, reference) = grid(9);
+        // A smooth displacement everywhere, then the centre vertex pushed
+        // through its neighbours.
+        let mut x: Vec<Vec3> = reference
+            .iter()
+            .map(|p| [p[0] + 0.2, p[1] - 0.1, 0.05 * p[0]])
+            .collect();
+        let centre = 4 * 9 + 4;
+        x[centre][0] += 1.6;
+        assert!(!folded_faces(&topo, &reference, &x).is_empty());
+        let before = x.clone();
+        assert_eq!(
+            translate_regions(&topo, &reference, &mut x, &[false; 81], 0),
+            0
+        );
+        // The centre and its ring took one displacement; beyond two rings
+        // nothing moved.
+        let d = |v: usize| sub(x[v], reference[v]);
+        for &w in topo.ring(centre as u32) {
+            assert!(norm(sub(d(w as usize), d(centre))) < 1e-12);
+        }
+        for v in [0, 8, 72, 80, 4, 36, 44, 76] {
+            assert_eq!(x[v], before[v], "vertex {v}");
+        }
+        // A body without folds is left as it is.
+        let copy = before
+            .iter()
+            .map(|p| [p[0], p[1], p[2]])
+            .collect::<Vec<_>>();
+        let mut clean: Vec<Vec3> = reference.iter().map(|p| [p[0] + 0.2, p[1], 0.0]).collect();
+        let same = clean.clone();
+        assert_eq!(
+            translate_regions(&topo, &reference, &mut clean, &[false; 81], 3),
+            0
+        );
+        assert_eq!(clean, same);
+        drop(copy);
     }
 
     #[test]

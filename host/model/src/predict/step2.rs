@@ -60,6 +60,13 @@
 //! [`Warning::SoftPullReduced`] when it is not the first: the readings are
 //! the customer, the soft targets a statistic.
 //!
+//! Then, on the body kept, the fold repair's last resort
+//! (`ShapeModel::unfold_over_readings`): where triangles are still folded,
+//! their neighbourhood is moved as one piece and blended into the body
+//! around it, the readings it pushes beyond their allowable error named
+//! ([`Warning::SurfaceOverReadings`]): the surface wins over the readings
+//! (a smaller soft pull, which costs no reading, was tried first).
+//!
 //! Before all of this, with the fold repair on, a step-1 shape that flips
 //! more than `UNFOLD_STEP1_ABOVE` triangles of the model's mean shape is
 //! smoothed there (`ShapeModel::unfold_step1`): a linear shape space can
@@ -342,6 +349,10 @@ const FOLD_RELEASE_PASSES: usize = 2;
 /// go that the repair tries, the largest first.
 const FOLD_RELEASE_PARTS: [f64; 8] = [1.0, 0.875, 0.75, 0.625, 0.5, 0.375, 0.25, 0.125];
 
+/// The widest neighbourhood (rings around the folded triangles) the fold
+/// repair's last resort moves as one piece (`folds::translate_regions`).
+const LAST_RESORT_RINGS: usize = 8;
+
 /// How many triangles of the model's mean shape the step-1 shape may fold
 /// before it is smoothed (`ShapeModel::unfold_step1`). Why 20: a few of the
 /// template's slivers flip on many bodies, generated ones too (the 50
@@ -381,6 +392,29 @@ fn straight_landmarks(readings: &Readings, measured: &[Measured], n: usize) -> V
     pinned
 }
 
+/// Per reading of `readings` (measured as `measured`, one per reading),
+/// whether it is within its allowable error: the measurer's, else
+/// [`FOLD_REPAIR_DEFAULT_MM`]; a soft target always counts as within.
+fn within_allowable(
+    readings: &Readings,
+    measured: &[Measured],
+    measurer: &dyn Measurer,
+) -> Vec<bool> {
+    readings
+        .iter()
+        .zip(measured)
+        .map(|(g, m)| {
+            if g.soft {
+                return true;
+            }
+            let allowable = measurer
+                .allowable_error(g.index)
+                .map_or(FOLD_REPAIR_DEFAULT_MM, |a| a * MM_PER_M);
+            (m.value * MM_PER_M - g.target_mm).abs() <= allowable
+        })
+        .collect()
+}
+
 /// How many of `readings` (soft targets left out) `measured` (one per
 /// reading) leaves beyond their limit in `limits` (mm, one per reading, as
 /// [`thresholds`] gives them).
@@ -405,6 +439,63 @@ fn fold_rank(folded: usize, creased: usize) -> (usize, usize) {
         0
     };
     (folded, excess)
+}
+
+/// The fold repair's last resort on `x` (V vertices, metres), which folds
+/// `left` triangles of `reference` (the step-1 shape) that smoothing with
+/// the readings held could not unfold: smoothed first with nothing held
+/// where `smooth_first`, then the neighbourhood of what is still folded
+/// moved as one piece (`folds::translate_regions`, the mean of its `held`
+/// vertices where it has any), blended over 0 to [`LAST_RESORT_RINGS`]
+/// rings, each kept while it folds fewer. Returns the smallest part of the
+/// way towards that body ([`FOLD_RELEASE_PARTS`]) that folds no more, and
+/// how many it folds; `None` where it does not unfold all of what was left
+/// or at least half of it (then no reading is given up for it).
+fn last_resort(
+    topology: &Topology,
+    reference: &[Vec3],
+    x: &[Vec3],
+    left: usize,
+    smooth_first: bool,
+    held: &[bool],
+) -> Option<(Vec<Vec3>, usize)> {
+    let mut y = x.to_vec();
+    let mut now = if smooth_first {
+        folds::smooth_folds(topology, reference, &mut y, &vec![false; x.len()]).1
+    } else {
+        left
+    };
+    // What the smoothing leaves (mostly the template's slivers, whose
+    // neighbours it moves apart again): the neighbourhood as one piece,
+    // blended over a ring more each time, while that folds fewer.
+    for rings in 0..=LAST_RESORT_RINGS {
+        if now == 0 {
+            break;
+        }
+        let mut z = y.clone();
+        let n = folds::translate_regions(topology, reference, &mut z, held, rings);
+        if n < now {
+            y = z;
+            now = n;
+        }
+    }
+    if now > 0 && 2 * now > left {
+        return None;
+    }
+    // The readings move as little as the surface allows; the whole way (1)
+    // always qualifies.
+    FOLD_RELEASE_PARTS.iter().rev().find_map(|&part| {
+        let z: Vec<Vec3> = if part == 1.0 {
+            y.clone()
+        } else {
+            x.iter()
+                .zip(&y)
+                .map(|(&a, &b)| add(a, scale(sub(b, a), part)))
+                .collect()
+        };
+        let n = folds::folded_faces(topology, reference, &z).len();
+        (n <= now).then_some((z, n))
+    })
 }
 
 /// The allowable error (mm) of a reading whose measurer does not know its
@@ -486,6 +577,9 @@ impl ShapeModel {
             }
         }
         let (_, shape) = best.expect("at least one share is tried");
+        if config.fold_repair {
+            return self.unfold_over_readings(shape, readings, step1, measurer, topology);
+        }
         Ok(shape)
     }
 
@@ -513,21 +607,7 @@ impl ShapeModel {
             return Ok(shape);
         }
         let mut pinned = straight_landmarks(readings, &shape.measured, topology.n_vertices());
-        let within = |m: &[Measured]| -> Vec<bool> {
-            readings
-                .iter()
-                .zip(m)
-                .map(|(g, m)| {
-                    if g.soft {
-                        return true;
-                    }
-                    let allowable = measurer
-                        .allowable_error(g.index)
-                        .map_or(FOLD_REPAIR_DEFAULT_MM, |a| a * MM_PER_M);
-                    (m.value * MM_PER_M - g.target_mm).abs() <= allowable
-                })
-                .collect()
-        };
+        let within = |m: &[Measured]| within_allowable(readings, m, measurer);
         let met = within(&shape.measured);
         // The readings within their allowable error on `shape` that fall
         // out of it on `measured`.
@@ -600,6 +680,83 @@ impl ShapeModel {
         }
         if left < folded {
             shape.warnings.push(Warning::FoldsSmoothed { folded, left });
+        }
+        Ok(shape)
+    }
+
+    /// The fold repair's last resort, on step 2's body as chosen (after the
+    /// soft-pull tries, so that a smaller pull, which costs no reading, is
+    /// preferred to it): where `shape` still folds triangles of the step-1
+    /// shape, unfolds them at the readings' cost ([`last_resort`], two
+    /// ways, the better kept: fewer folded triangles, then fewer readings
+    /// given up) and names the readings within their allowable error
+    /// before that are beyond it after ([`Warning::SurfaceOverReadings`]).
+    /// Why: a flipped triangle is a surface through itself, no body; issue
+    /// 12's kept readings are fitted "as far as a human-looking surface
+    /// allows". On all 1,505 ANSUR II test-split people entered with their
+    /// `ansur` survey values, 199 bodies kept 814 flipped triangles that no
+    /// smoothing holding the readings could unfold
+    /// (`docs/results/real-customers.md`, "No flipped triangles").
+    fn unfold_over_readings(
+        &self,
+        mut shape: Step2Shape,
+        readings: &Readings,
+        step1: &Step1Shape,
+        measurer: &dyn Measurer,
+        topology: &Topology,
+    ) -> Result<Step2Shape> {
+        let left = folds::folded_faces(topology, &step1.vertices, &shape.vertices).len();
+        if left == 0 {
+            return Ok(shape);
+        }
+        let met = within_allowable(readings, &shape.measured, measurer);
+        // Two ways: the neighbourhood moved as one piece by its straight
+        // readings' landmarks where it holds any (a crotch point stays
+        // where step 2 put it, so crotch height does), or smoothed with
+        // nothing held first.
+        let landmarks = straight_landmarks(readings, &shape.measured, topology.n_vertices());
+        let nothing_held = vec![false; topology.n_vertices()];
+        // (triangles left folded, readings given up (indices), the body).
+        type Unfolded = (usize, Vec<usize>, (Vec<Vec3>, Vec<Measured>));
+        let mut best: Option<Unfolded> = None;
+        for (smooth_first, held) in [(false, &landmarks), (true, &nothing_held)] {
+            let Some((y, n)) = last_resort(
+                topology,
+                &step1.vertices,
+                &shape.vertices,
+                left,
+                smooth_first,
+                held,
+            ) else {
+                continue;
+            };
+            let measured = self.measure_checked(measurer, &y, &readings.indices())?;
+            let out: Vec<usize> = within_allowable(readings, &measured, measurer)
+                .iter()
+                .zip(&met)
+                .enumerate()
+                .filter(|(_, (now, before))| **before && !**now)
+                .map(|(i, _)| i)
+                .collect();
+            if best
+                .as_ref()
+                .is_none_or(|b| (n, out.len()) < (b.0, b.1.len()))
+            {
+                best = Some((n, out, (y, measured)));
+            }
+        }
+        if let Some((n, out, (y, measured))) = best {
+            let given = readings.indices();
+            shape.warnings.push(Warning::SurfaceOverReadings {
+                folded: left,
+                left: n,
+                readings: out
+                    .into_iter()
+                    .map(|i| self.measurement_names[given[i]].clone())
+                    .collect(),
+            });
+            shape.measured = measured;
+            shape.vertices = y;
         }
         Ok(shape)
     }

@@ -102,6 +102,22 @@ pub enum Warning {
         /// Triangles still flipped or collapsed after smoothing.
         left: usize,
     },
+    /// The fold repair could not unfold `folded` triangles without a
+    /// reading falling out of its allowable error, so it smoothed them with
+    /// nothing held (see [`super::Step2Settings::fold_repair`]), which left
+    /// `left` folded and pushed `readings` beyond their allowable error: the
+    /// body follows them as far as a surface that does not pass through
+    /// itself allows.
+    SurfaceOverReadings {
+        /// Triangles still flipped or collapsed after the repair that held
+        /// the readings.
+        folded: usize,
+        /// Triangles still flipped or collapsed after this smoothing.
+        left: usize,
+        /// The readings (measurement names) within their allowable error
+        /// before this smoothing and beyond it after; may be empty.
+        readings: Vec<String>,
+    },
     /// Following the real-people soft targets `asked` of the way in step 2
     /// folded or creased the surface, so the body kept follows them `pull`
     /// of the way (see [`super::Step2Settings::soft_pull`]); the readings
@@ -192,6 +208,25 @@ impl std::fmt::Display for Warning {
                 f,
                 "step 2 folded {folded} triangles of the surface: smoothed them out, {left} left"
             ),
+            Self::SurfaceOverReadings {
+                folded,
+                left,
+                readings,
+            } => {
+                write!(
+                    f,
+                    "{folded} triangles of the surface stayed folded where the body met the readings: smoothed them out, {left} left"
+                )?;
+                if readings.is_empty() {
+                    f.write_str("; no reading left its allowable error")
+                } else {
+                    write!(
+                        f,
+                        "; these readings are now outside their allowable error: {}",
+                        readings.join(", ")
+                    )
+                }
+            }
             Self::SoftPullReduced { pull, asked } => write!(
                 f,
                 "following real people's statistics for the dimensions not measured {:.0} % of the way folded or creased the surface: followed them {:.0} %",
