@@ -17,7 +17,7 @@
 //! it is a few dozen lines over the template's own edges; no mesh crate has
 //! it.
 
-use tapeshape_mesh::vec3::{add, cross, dot, norm, sub, triangle_normal};
+use tapeshape_mesh::vec3::{add, cross, dot, norm, scale, sub, triangle_normal};
 use tapeshape_mesh::{Topology, Vec3};
 
 /// Rings of neighbours around the folded triangles smoothed from the start.
@@ -385,14 +385,10 @@ pub(crate) fn translate_regions(
         }
         let t = dist[v] as f64 / (band + 1) as f64;
         let own = sub(x[v], reference[v]);
-        let d = add(scale3(means[group_of[v]], 1.0 - t), scale3(own, t));
+        let d = add(scale(means[group_of[v]], 1.0 - t), scale(own, t));
         x[v] = add(reference[v], d);
     }
     folded_faces(topology, reference, x).len()
-}
-
-fn scale3(a: Vec3, s: f64) -> Vec3 {
-    a.map(|e| e * s)
 }
 
 #[cfg(test)]
@@ -543,10 +539,6 @@ mod tests {
             assert_eq!(x[v], before[v], "vertex {v}");
         }
         // A body without folds is left as it is.
-        let copy = before
-            .iter()
-            .map(|p| [p[0], p[1], p[2]])
-            .collect::<Vec<_>>();
         let mut clean: Vec<Vec3> = reference.iter().map(|p| [p[0] + 0.2, p[1], 0.0]).collect();
         let same = clean.clone();
         assert_eq!(
@@ -554,7 +546,6 @@ mod tests {
             0
         );
         assert_eq!(clean, same);
-        drop(copy);
     }
 
     #[test]

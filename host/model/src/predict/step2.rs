@@ -415,6 +415,18 @@ fn within_allowable(
         .collect()
 }
 
+/// The readings (indices) within their allowable error `before` and not
+/// `now` (one flag per reading each, as [`within_allowable`] gives them).
+fn fallen_out(before: &[bool], now: &[bool]) -> Vec<usize> {
+    before
+        .iter()
+        .zip(now)
+        .enumerate()
+        .filter(|(_, (b, n))| **b && !**n)
+        .map(|(i, _)| i)
+        .collect()
+}
+
 /// How many of `readings` (soft targets left out) `measured` (one per
 /// reading) leaves beyond their limit in `limits` (mm, one per reading, as
 /// [`thresholds`] gives them).
@@ -611,15 +623,7 @@ impl ShapeModel {
         let met = within(&shape.measured);
         // The readings within their allowable error on `shape` that fall
         // out of it on `measured`.
-        let lost = |measured: &[Measured]| -> Vec<usize> {
-            within(measured)
-                .iter()
-                .zip(&met)
-                .enumerate()
-                .filter(|(_, (now, before))| **before && !**now)
-                .map(|(i, _)| i)
-                .collect()
-        };
+        let lost = |measured: &[Measured]| fallen_out(&met, &within(measured));
         let mut left = folded;
         for _ in 0..FOLD_REPAIR_ATTEMPTS {
             let mut x = shape.vertices.clone();
@@ -731,13 +735,7 @@ impl ShapeModel {
                 continue;
             };
             let measured = self.measure_checked(measurer, &y, &readings.indices())?;
-            let out: Vec<usize> = within_allowable(readings, &measured, measurer)
-                .iter()
-                .zip(&met)
-                .enumerate()
-                .filter(|(_, (now, before))| **before && !**now)
-                .map(|(i, _)| i)
-                .collect();
+            let out = fallen_out(&met, &within_allowable(readings, &measured, measurer));
             if best
                 .as_ref()
                 .is_none_or(|b| (n, out.len()) < (b.0, b.1.len()))
